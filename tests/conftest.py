@@ -1,0 +1,8 @@
+"""Test-suite configuration: float64 and strict dtype promotion, as the library expects."""
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_numpy_dtype_promotion", "strict")
+
+import jaxgwo  # noqa: E402,F401  (import after the flags so the package sees them)
