@@ -19,6 +19,7 @@ redundant complex work, and returns complex arrays for the caller.
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Complex, Float
 
@@ -30,11 +31,12 @@ def polyval_jw(coeffs: Float[Array, " n"], w: Float[Array, " freq"]) -> Complex[
 
     Comparable to ``numpy.polyval(coeffs, 1j * w)``.
     """
-    s = 1j * w
-    acc = jnp.zeros_like(s)
-    for c in coeffs:
-        acc = acc * s + c
-    return acc
+    # Horner's rule on (re, im): (re + j im)(j w) + c = (c - im w) + j (re w)
+    re = jnp.zeros_like(w)
+    im = jnp.zeros_like(w)
+    for i in range(coeffs.shape[0]):
+        re, im = coeffs[i] - im * w, re * w
+    return jax.lax.complex(re, im)
 
 
 def paper_model_response(
@@ -57,7 +59,8 @@ def paper_model_response(
     den_im = d1_re * d2_im + d1_im * d2_re
     num = k * ws * ws
     mag2 = den_re * den_re + den_im * den_im
-    return (num * den_re - 1j * num * den_im) / mag2
+    scale = num / mag2
+    return jax.lax.complex(scale * den_re, -scale * den_im)
 
 
 def paper_model_coefficients(params: Float[Array, " 5"]) -> tuple[Array, Array]:

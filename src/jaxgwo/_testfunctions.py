@@ -1,0 +1,222 @@
+r"""Benchmark problems for comparing optimisers.
+
+* F1-F13 of Mirjalili, Mirjalili & Lewis (2014), "Grey Wolf Optimizer", Adv. Eng. Softw.
+  69, Tables 1-2 (unimodal F1-F7, multimodal F8-F13), with their search boxes and minima.
+* A helicopter-like problem: fit the 5 parameters of the paper model, eqs. (15)-(16), to
+  its own noise-free frequency response.
+
+Each problem is a :class:`Problem` with ``objective(x) -> scalar``, bounds and the known
+minimum, so ``run(config, p.objective, p.lower(dim), p.upper(dim), key)`` benchmarks it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float, PRNGKeyArray
+
+from ._transfer import paper_model_response
+
+
+def sphere(x):
+    """F1: :math:`\\sum x_i^2`."""
+    return jnp.sum(x * x)
+
+
+def schwefel_2_22(x):
+    """F2: :math:`\\sum |x_i| + \\prod |x_i|`."""
+    ax = jnp.abs(x)
+    return jnp.sum(ax) + jnp.prod(ax)
+
+
+def schwefel_1_2(x):
+    """F3: :math:`\\sum_i (\\sum_{j \\le i} x_j)^2`."""
+    return jnp.sum(jnp.cumsum(x) ** 2)
+
+
+def schwefel_2_21(x):
+    """F4: :math:`\\max_i |x_i|`."""
+    return jnp.max(jnp.abs(x))
+
+
+def rosenbrock(x):
+    """F5: :math:`\\sum 100 (x_{i+1} - x_i^2)^2 + (x_i - 1)^2`."""
+    return jnp.sum(100.0 * (x[1:] - x[:-1] ** 2) ** 2 + (x[:-1] - 1.0) ** 2)
+
+
+def step_function(x):
+    """F6: :math:`\\sum \\lfloor x_i + 0.5 \\rfloor^2`."""
+    return jnp.sum(jnp.floor(x + 0.5) ** 2)
+
+
+class QuarticNoise(eqx.Module):
+    """F7: :math:`\\sum i x_i^4 + U[0, 1)`.
+
+    The noise is drawn from an explicit key folded with the bits of ``x``, so it is
+    reproducible: the same key and the same ``x`` give the same value.
+    """
+
+    key: PRNGKeyArray
+
+    def __call__(self, x):
+        i = jnp.arange(1, x.shape[0] + 1, dtype=x.dtype)
+        bits = jax.lax.bitcast_convert_type(jnp.sum(x * i), jnp.uint64).astype(jnp.uint32)
+        noise = jax.random.uniform(jax.random.fold_in(self.key, bits), (), dtype=x.dtype)
+        return jnp.sum(i * x**4) + noise
+
+
+def schwefel_2_26(x):
+    """F8: :math:`\\sum -x_i \\sin\\sqrt{|x_i|}`; minimum :math:`-418.9829 n`."""
+    return jnp.sum(-x * jnp.sin(jnp.sqrt(jnp.abs(x))))
+
+
+def rastrigin(x):
+    """F9: :math:`\\sum x_i^2 - 10 \\cos(2\\pi x_i) + 10`."""
+    return jnp.sum(x * x - 10.0 * jnp.cos(2.0 * math.pi * x) + 10.0)
+
+
+def ackley(x):
+    """F10: Ackley's function."""
+    n = x.shape[0]
+    return (
+        -20.0 * jnp.exp(-0.2 * jnp.sqrt(jnp.sum(x * x) / n))
+        - jnp.exp(jnp.sum(jnp.cos(2.0 * math.pi * x)) / n)
+        + 20.0
+        + math.e
+    )
+
+
+def griewank(x):
+    """F11: Griewank's function."""
+    i = jnp.arange(1, x.shape[0] + 1, dtype=x.dtype)
+    return jnp.sum(x * x) / 4000.0 - jnp.prod(jnp.cos(x / jnp.sqrt(i))) + 1.0
+
+
+def _u(x, a, k, m):
+    return jnp.where(x > a, k * (x - a) ** m, jnp.where(x < -a, k * (-x - a) ** m, 0.0))
+
+
+def penalized_1(x):
+    """F12: the first generalised penalised function."""
+    n = x.shape[0]
+    y = 1.0 + (x + 1.0) / 4.0
+    core = (
+        10.0 * jnp.sin(math.pi * y[0]) ** 2
+        + jnp.sum((y[:-1] - 1.0) ** 2 * (1.0 + 10.0 * jnp.sin(math.pi * y[1:]) ** 2))
+        + (y[-1] - 1.0) ** 2
+    )
+    return math.pi / n * core + jnp.sum(_u(x, 10.0, 100.0, 4))
+
+
+def penalized_2(x):
+    """F13: the second generalised penalised function."""
+    core = (
+        jnp.sin(3.0 * math.pi * x[0]) ** 2
+        + jnp.sum((x[:-1] - 1.0) ** 2 * (1.0 + jnp.sin(3.0 * math.pi * x[1:]) ** 2))
+        + (x[-1] - 1.0) ** 2 * (1.0 + jnp.sin(2.0 * math.pi * x[-1]) ** 2)
+    )
+    return 0.1 * core + jnp.sum(_u(x, 5.0, 100.0, 4))
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A benchmark problem: objective, box (per dimension, or fixed) and known minimum."""
+
+    name: str
+    objective: Callable
+    low: float | tuple
+    high: float | tuple
+    minimum: float | Callable[[int], float]
+    fixed_dim: int | None = None
+
+    def lower(self, dim: int | None = None) -> Float[Array, " dim"]:
+        return self._box(self.low, dim)
+
+    def upper(self, dim: int | None = None) -> Float[Array, " dim"]:
+        return self._box(self.high, dim)
+
+    def _box(self, v, dim):
+        if isinstance(v, tuple):
+            return jnp.asarray(v, dtype=jnp.result_type(float))
+        return jnp.full((dim,), v, dtype=jnp.result_type(float))
+
+    def optimum(self, dim: int | None = None) -> float:
+        return self.minimum(dim) if callable(self.minimum) else self.minimum
+
+
+def mirjalili_functions(key: PRNGKeyArray) -> tuple[Problem, ...]:
+    """F1-F13 with Mirjalili's boxes; ``key`` seeds F7's noise."""
+    return (
+        Problem("F1 sphere", sphere, -100.0, 100.0, 0.0),
+        Problem("F2 schwefel_2_22", schwefel_2_22, -10.0, 10.0, 0.0),
+        Problem("F3 schwefel_1_2", schwefel_1_2, -100.0, 100.0, 0.0),
+        Problem("F4 schwefel_2_21", schwefel_2_21, -100.0, 100.0, 0.0),
+        Problem("F5 rosenbrock", rosenbrock, -30.0, 30.0, 0.0),
+        Problem("F6 step", step_function, -100.0, 100.0, 0.0),
+        Problem("F7 quartic_noise", QuarticNoise(key), -1.28, 1.28, 0.0),
+        Problem("F8 schwefel_2_26", schwefel_2_26, -500.0, 500.0, lambda n: -418.9829 * n),
+        Problem("F9 rastrigin", rastrigin, -5.12, 5.12, 0.0),
+        Problem("F10 ackley", ackley, -32.0, 32.0, 0.0),
+        Problem("F11 griewank", griewank, -600.0, 600.0, 0.0),
+        Problem("F12 penalized_1", penalized_1, -50.0, 50.0, 0.0),
+        Problem("F13 penalized_2", penalized_2, -50.0, 50.0, 0.0),
+    )
+
+
+# Truth and box of the helicopter problem.  sqrt(M) <= 25 rad/s <= omega_s keeps the servo
+# the faster quadratic, which removes the factor-swap alias (the swapped solution has
+# M' = omega_s**2 >= 625, outside the box).
+HELICOPTER_TRUTH = (250.0, 0.1, 144.0, 38.2261, 0.5118)  # K, tau, M, omega_s, zeta_s
+HELICOPTER_LOWER = (10.0, 0.01, 25.0, 25.0, 0.1)
+HELICOPTER_UPPER = (1000.0, 1.0, 625.0, 80.0, 1.5)
+
+
+class FrequencyFit(eqx.Module):
+    r"""Mean squared complex relative error of the paper model against a target response.
+
+    .. math:: f(x) = \frac1n \sum_i |G(j\omega_i; x) - G_i|^2 / |G_i|^2
+
+    The data are array fields, so a new target of the same shape reuses the compiled run.
+    """
+
+    w: Float[Array, " freq"]
+    target_re: Float[Array, " freq"]
+    target_im: Float[Array, " freq"]
+    inv_mag2: Float[Array, " freq"]
+
+    @classmethod
+    def from_response(cls, w, target) -> FrequencyFit:
+        target = jnp.asarray(target)
+        return cls(
+            w=jnp.asarray(w),
+            target_re=jnp.real(target),
+            target_im=jnp.imag(target),
+            inv_mag2=1.0 / jnp.abs(target) ** 2,
+        )
+
+    def __call__(self, x: Float[Array, " 5"]) -> Float[Array, ""]:
+        g = paper_model_response(x, self.w)
+        dr = jnp.real(g) - self.target_re
+        di = jnp.imag(g) - self.target_im
+        return jnp.mean((dr * dr + di * di) * self.inv_mag2)
+
+
+def helicopter_problem(n_freq: int = 200, w_min: float = 1.0, w_max: float = 60.0) -> Problem:
+    """Fit ``(K, tau, M, omega_s, zeta_s)`` to the paper model's own noise-free response on
+    ``n_freq`` log-spaced points from ``w_min`` to ``w_max`` rad/s.  Minimum 0 at
+    :data:`HELICOPTER_TRUTH`, unique in the box (the servo is the faster pair)."""
+    w = jnp.logspace(math.log10(w_min), math.log10(w_max), n_freq)
+    target = paper_model_response(jnp.asarray(HELICOPTER_TRUTH), w)
+    return Problem(
+        "helicopter 5-parameter fit",
+        FrequencyFit.from_response(w, target),
+        HELICOPTER_LOWER,
+        HELICOPTER_UPPER,
+        0.0,
+        fixed_dim=5,
+    )
