@@ -6,3 +6,8 @@ jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
 import jaxgwo  # noqa: E402,F401  (import after the flags so the package sees them)
+
+import os  # noqa: E402
+
+# CLI tests must not write into the user's persistent XLA cache.
+os.environ.setdefault("JAXGWO_CACHE_DIR", "off")

@@ -1,0 +1,54 @@
+"""Benchmark functions: values at their known minimisers and at hand-computed points."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxgwo import _testfunctions as T
+
+N = 6
+
+
+def _by_name():
+    return {p.name.split()[0]: p for p in T.mirjalili_functions(jax.random.key(0))}
+
+
+@pytest.mark.parametrize("fid,xstar", [
+    ("F1", 0.0), ("F2", 0.0), ("F3", 0.0), ("F4", 0.0), ("F5", 1.0), ("F6", 0.0),
+    ("F9", 0.0), ("F10", 0.0), ("F11", 0.0), ("F12", -1.0), ("F13", 1.0),
+])
+def test_minimum_value_at_minimiser(fid, xstar):
+    p = _by_name()[fid]
+    x = jnp.full((N,), xstar)
+    assert float(p.objective(x)) == pytest.approx(p.optimum(N), abs=1e-12)
+
+
+def test_schwefel_2_26_minimum():
+    p = _by_name()["F8"]
+    x = jnp.full((N,), 420.968746)
+    assert float(p.objective(x)) == pytest.approx(p.optimum(N), rel=1e-6)
+
+
+def test_hand_computed_values():
+    x = jnp.array([1.0, -2.0, 3.0])
+    assert float(T.schwefel_2_22(x)) == 6.0 + 6.0
+    assert float(T.schwefel_1_2(x)) == 1.0 + 1.0 + 4.0
+    assert float(T.schwefel_2_21(x)) == 3.0
+    assert float(T.rosenbrock(x)) == pytest.approx(100 * 9 + 0 + 100 * 1 + 9)
+    assert float(T.step_function(jnp.array([0.4, 0.6, -1.6]))) == 0 + 1 + 4
+    ref_ackley = (-20 * math.exp(-0.2 * math.sqrt(14 / 3))
+                  - math.exp((math.cos(2 * math.pi) * 2 + math.cos(6 * math.pi)) / 3) + 20 + math.e)
+    assert float(T.ackley(x)) == pytest.approx(ref_ackley, rel=1e-12)
+
+
+def test_quartic_noise_is_reproducible_and_bounded():
+    f = T.QuarticNoise(jax.random.key(3))
+    x = jnp.array([0.1, 0.2, -0.3])
+    base = float(jnp.sum(jnp.arange(1.0, 4.0) * x**4))
+    v1, v2 = float(f(x)), float(f(x))
+    assert v1 == v2
+    assert base <= v1 < base + 1.0
+    assert float(T.QuarticNoise(jax.random.key(4))(x)) != v1
