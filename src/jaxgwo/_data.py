@@ -1,0 +1,482 @@
+"""The flight-data format: a frozen record, a validating loader and an atomic writer.
+
+The contract every jaxgwo command reads and writes:
+
+* **CSV** with one header row.  Lines starting with ``#`` are comments; ``# key: value``
+  comments before the header are the record's metadata (sample rate, units, how the
+  file was made).
+* A ``time`` column in seconds, strictly increasing and uniformly sampled (each step
+  within 1 % of the median step).
+* Helicopter channels ``delta_lat`` and ``delta_lon`` (normalised cyclic inputs,
+  dimensionless) and ``p`` and ``q`` (body roll and pitch rate, rad/s).  Extra numeric
+  columns are kept (``FlightRecord.extras``) and otherwise ignored.  Other column names
+  are mapped with ``load_record(path, columns={"p": "gyro_x", ...})``.
+* **NPZ** with the same names as arrays, and the metadata as a JSON string under the key
+  ``__metadata__`` (read without ``allow_pickle``).
+
+Every rejection raises :class:`FlightDataError`, a ``ValueError``, with a message that
+names the file, the column and the row.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+INPUT_NAMES: tuple[str, ...] = ("delta_lat", "delta_lon")
+"""Canonical input columns: normalised lateral and longitudinal cyclic (dimensionless)."""
+
+OUTPUT_NAMES: tuple[str, ...] = ("p", "q")
+"""Canonical output columns: body roll and pitch rate (rad/s)."""
+
+CHANNELS: dict[str, tuple[str, str]] = {
+    "lateral": ("delta_lat", "p"),
+    "longitudinal": ("delta_lon", "q"),
+}
+"""Channel name -> (input column, output column), as in the paper's eqs. (15)-(16)."""
+
+UNITS: dict[str, str] = {
+    "time": "s",
+    "delta_lat": "normalised (dimensionless)",
+    "delta_lon": "normalised (dimensionless)",
+    "p": "rad/s",
+    "q": "rad/s",
+}
+
+TIME_TOLERANCE = 0.01
+"""Allowed deviation of each time step from the median step, as a fraction of the step."""
+
+_NPZ_METADATA_KEY = "__metadata__"
+
+
+class FlightDataError(ValueError):
+    """Flight data that breaks the format contract (missing column, NaN, bad time, ...)."""
+
+
+class FlightRecord(eqx.Module):
+    """One uniformly sampled flight record (immutable PyTree).
+
+    Attributes:
+        time: sample times in seconds, strictly increasing and uniform.
+        inputs: input name -> samples (``delta_lat``, ``delta_lon``, dimensionless).
+        outputs: output name -> samples (``p``, ``q``, rad/s).
+        extras: any further numeric columns, kept and not interpreted.
+        sample_rate: samples per second (Hz), ``1 / median(diff(time))``.
+        metadata_items: metadata as sorted ``(key, value)`` string pairs; static, so the
+            record stays hashable for ``jax.jit``.  Read it as the dict :attr:`metadata`.
+    """
+
+    time: Float[Array, " n"]
+    inputs: dict[str, Float[Array, " n"]]
+    outputs: dict[str, Float[Array, " n"]]
+    extras: dict[str, Float[Array, " n"]]
+    sample_rate: float = eqx.field(static=True)
+    metadata_items: tuple[tuple[str, str], ...] = eqx.field(static=True, default=())
+
+    @property
+    def metadata(self) -> dict[str, str]:
+        """The metadata as a fresh ``dict`` (the record itself stays frozen)."""
+        return dict(self.metadata_items)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.time.shape[0])
+
+    @property
+    def dt(self) -> float:
+        """Sample period in seconds."""
+        return 1.0 / self.sample_rate
+
+    @property
+    def duration(self) -> float:
+        """``time[-1] - time[0]`` in seconds."""
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """All column names, ``time`` first, in the order they are written."""
+        return ("time", *self.inputs, *self.outputs, *self.extras)
+
+    def __getitem__(self, name: str) -> Float[Array, " n"]:
+        if name == "time":
+            return self.time
+        for group in (self.inputs, self.outputs, self.extras):
+            if name in group:
+                return group[name]
+        raise KeyError(f"no column {name!r}; columns are {', '.join(self.columns)}")
+
+    def channel(self, name: str) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
+        """``(input, output)`` samples of ``"lateral"`` or ``"longitudinal"``."""
+        if name not in CHANNELS:
+            raise KeyError(f"unknown channel {name!r}; expected one of {', '.join(CHANNELS)}")
+        u, y = CHANNELS[name]
+        return self[u], self[y]
+
+    def segment(self, start_s: float, stop_s: float) -> FlightRecord:
+        """The samples with ``start_s <= time < stop_s`` as a new record."""
+        t = np.asarray(self.time)
+        keep = np.flatnonzero((t >= start_s) & (t < stop_s))
+        if keep.size < 2:
+            raise FlightDataError(f"segment [{start_s}, {stop_s}) s holds fewer than 2 samples")
+        sl = slice(int(keep[0]), int(keep[-1]) + 1)
+
+        def cut(d: dict[str, Array]) -> dict[str, Array]:
+            return {k: v[sl] for k, v in d.items()}
+
+        return FlightRecord(
+            time=self.time[sl],
+            inputs=cut(self.inputs),
+            outputs=cut(self.outputs),
+            extras=cut(self.extras),
+            sample_rate=self.sample_rate,
+            metadata_items=self.metadata_items,
+        )
+
+
+def _metadata_items(metadata: Mapping[str, object] | None) -> tuple[tuple[str, str], ...]:
+    if not metadata:
+        return ()
+    items = []
+    for k, v in metadata.items():
+        key = str(k).strip()
+        if not key or ":" in key or "\n" in key:
+            raise FlightDataError(f"metadata key {k!r} must be non-empty, without ':' or newline")
+        text = str(v)
+        if "\n" in text:
+            raise FlightDataError(f"metadata value for {key!r} must be a single line")
+        items.append((key, text))
+    return tuple(sorted(items))
+
+
+def _check_time(time: np.ndarray, where: str, line_of: Sequence[int] | None) -> float:
+    """Validate a time vector and return its sample rate (Hz)."""
+
+    def row(i: int) -> str:
+        return f"row {i}" + (f" (line {line_of[i]})" if line_of is not None else "")
+
+    if time.shape[0] < 2:
+        raise FlightDataError(f"{where}: fewer than two samples ({time.shape[0]}); need at least 2")
+    steps = np.diff(time)
+    bad = np.flatnonzero(steps <= 0.0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise FlightDataError(
+            f"{where}: time is not strictly increasing at {row(i)}: "
+            f"{float(time[i - 1])!r} s then {float(time[i])!r} s"
+        )
+    dt = float(np.median(steps))
+    off = np.flatnonzero(np.abs(steps - dt) > TIME_TOLERANCE * dt)
+    if off.size:
+        i = int(off[0]) + 1
+        raise FlightDataError(
+            f"{where}: time is not uniformly sampled at {row(i)}: step {float(steps[i - 1]):.6g} s "
+            f"differs from the median step {dt:.6g} s by more than {TIME_TOLERANCE:.0%}"
+        )
+    return 1.0 / dt
+
+
+def _build(
+    columns: dict[str, np.ndarray],
+    metadata: dict[str, str],
+    *,
+    where: str,
+    required: Sequence[str],
+    mapping: Mapping[str, str] | None,
+    line_of: Sequence[int] | None,
+) -> FlightRecord:
+    """Common validation of CSV and NPZ contents, then the frozen record."""
+    mapping = dict(mapping or {})
+    unknown = set(mapping) - {"time", *INPUT_NAMES, *OUTPUT_NAMES}
+    if unknown:
+        raise FlightDataError(
+            f"column mapping names unknown canonical column(s) {sorted(unknown)}; "
+            f"map from time, {', '.join(INPUT_NAMES + OUTPUT_NAMES)}"
+        )
+    file_name = {name: mapping.get(name, name) for name in ("time", *INPUT_NAMES, *OUTPUT_NAMES)}
+    existing = ", ".join(columns) if columns else "(none)"
+    for name in ("time", *required):
+        src = file_name.get(name, name)
+        if src not in columns:
+            shown = name if src == name else f"{src!r} (for {name})"
+            raise FlightDataError(f"{where}: missing column {shown}; the columns are: {existing}")
+
+    def row(i: int) -> str:
+        return f"row {i}" + (f" (line {line_of[i]})" if line_of is not None else "")
+
+    picked: dict[str, np.ndarray] = {}
+    for name in ("time", *INPUT_NAMES, *OUTPUT_NAMES):
+        src = file_name[name]
+        if src in columns:
+            values = columns[src]
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size:
+                i = int(bad[0])
+                raise FlightDataError(
+                    f"{where}: column {src!r} has a non-finite value ({float(values[i])!r}) at {row(i)}"
+                )
+            picked[name] = values
+    used = {file_name[n] for n in picked}
+    extras = {k: v for k, v in columns.items() if k not in used}
+
+    time = picked.pop("time")
+    rate = _check_time(time, where, line_of)
+    claimed = metadata.get("sample_rate_hz")
+    if claimed is not None:
+        try:
+            claimed_rate = float(claimed)
+        except ValueError:
+            raise FlightDataError(f"{where}: metadata sample_rate_hz {claimed!r} is not a number")
+        if not abs(claimed_rate - rate) <= TIME_TOLERANCE * rate:
+            raise FlightDataError(
+                f"{where}: metadata says sample_rate_hz {claimed_rate:g} but the time column "
+                f"is sampled at {rate:g} Hz"
+            )
+
+    def arr(x: np.ndarray) -> Array:
+        return jnp.asarray(np.asarray(x, dtype=np.float64))
+
+    return FlightRecord(
+        time=arr(time),
+        inputs={k: arr(picked[k]) for k in INPUT_NAMES if k in picked},
+        outputs={k: arr(picked[k]) for k in OUTPUT_NAMES if k in picked},
+        extras={k: arr(v) for k, v in extras.items()},
+        sample_rate=rate,
+        metadata_items=_metadata_items(metadata),
+    )
+
+
+def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str], list[int]]:
+    metadata: dict[str, str] = {}
+    header: list[str] | None = None
+    rows: list[list[str]] = []
+    lines: list[int] = []
+    with open(path, newline="", encoding="utf-8") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            text = raw.strip()
+            if not text:
+                continue
+            if text.startswith("#"):
+                body = text[1:].strip()
+                if header is None and ":" in body:
+                    key, _, value = body.partition(":")
+                    metadata[key.strip()] = value.strip()
+                continue
+            cells = [c.strip() for c in next(csv.reader([text]))]
+            if header is None:
+                header = cells
+                if len(set(header)) != len(header):
+                    dup = sorted({h for h in header if header.count(h) > 1})
+                    raise FlightDataError(f"{path}: duplicate column name(s) {dup} in the header")
+                continue
+            if len(cells) != len(header):
+                raise FlightDataError(
+                    f"{path}: line {lineno} has {len(cells)} fields, the header has {len(header)}"
+                )
+            rows.append(cells)
+            lines.append(lineno)
+    if header is None:
+        raise FlightDataError(f"{path}: no header row (the file is empty or only comments)")
+    columns: dict[str, np.ndarray] = {}
+    dropped: list[str] = []
+    for j, name in enumerate(header):
+        values = np.empty(len(rows), dtype=np.float64)
+        numeric = True
+        for i, r in enumerate(rows):
+            try:
+                values[i] = float(r[j])
+            except ValueError:
+                numeric = False
+                bad = (i, r[j])
+                break
+        if numeric:
+            columns[name] = values
+        elif name in ("time", *INPUT_NAMES, *OUTPUT_NAMES):
+            raise FlightDataError(
+                f"{path}: column {name!r} has a non-numeric value {bad[1]!r} at row {bad[0]} "
+                f"(line {lines[bad[0]]})"
+            )
+        else:  # a text column (flight mode, ...): not data, noted and dropped
+            dropped.append(name)
+    if dropped:
+        metadata["dropped_text_columns"] = ", ".join(dropped)
+    return columns, metadata, lines
+
+
+def _read_npz(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            raw = {k: npz[k] for k in npz.files}
+    except ValueError as err:  # object arrays need pickle, which we refuse
+        raise FlightDataError(f"{path}: cannot read without pickle ({err})") from None
+    metadata: dict[str, str] = {}
+    if _NPZ_METADATA_KEY in raw:
+        try:
+            metadata = {str(k): str(v) for k, v in json.loads(str(raw.pop(_NPZ_METADATA_KEY))).items()}
+        except (json.JSONDecodeError, AttributeError) as err:
+            raise FlightDataError(f"{path}: {_NPZ_METADATA_KEY} is not a JSON object ({err})")
+    columns: dict[str, np.ndarray] = {}
+    for k, v in raw.items():
+        if v.ndim != 1:
+            raise FlightDataError(f"{path}: array {k!r} has shape {v.shape}; columns must be 1-D")
+        if not np.issubdtype(v.dtype, np.number):
+            raise FlightDataError(f"{path}: array {k!r} has non-numeric dtype {v.dtype}")
+        columns[k] = np.asarray(v, dtype=np.float64)
+    lengths = {k: v.shape[0] for k, v in columns.items()}
+    if len(set(lengths.values())) > 1:
+        raise FlightDataError(f"{path}: columns have different lengths {lengths}")
+    return columns, metadata
+
+
+def load_record(
+    path: str | os.PathLike,
+    columns: Mapping[str, str] | None = None,
+    *,
+    required: Sequence[str] = INPUT_NAMES + OUTPUT_NAMES,
+) -> FlightRecord:
+    """Load and validate a flight record from ``.csv`` or ``.npz``.
+
+    Args:
+        path: the file; ``.npz`` is read as NumPy arrays, anything else as CSV.
+        columns: optional mapping from canonical name (``time``, ``delta_lat``,
+            ``delta_lon``, ``p``, ``q``) to the file's column name, e.g.
+            ``{"p": "gyro_x", "delta_lat": "ail"}``.
+        required: canonical columns that must exist besides ``time`` (all four by
+            default; ``("delta_lat", "p")`` for a lateral-only file).
+
+    Raises:
+        FlightDataError: a missing column (listing those that exist), a NaN or inf
+            (column and first row), non-increasing or irregular time (row), fewer than
+            two samples, or an unreadable file.
+        FileNotFoundError: no such file.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"no such flight-data file: {p}")
+    if p.suffix.lower() == ".npz":
+        cols, meta = _read_npz(p)
+        return _build(cols, meta, where=str(p), required=required, mapping=columns, line_of=None)
+    cols, meta, lines = _read_csv(p)
+    return _build(cols, meta, where=str(p), required=required, mapping=columns, line_of=lines)
+
+
+def make_record(
+    time: Float[Array, " n"] | np.ndarray,
+    columns: Mapping[str, Float[Array, " n"] | np.ndarray],
+    metadata: Mapping[str, object] | None = None,
+    *,
+    required: Sequence[str] = (),
+) -> FlightRecord:
+    """Build a validated record from in-memory arrays (same checks as the loader)."""
+    cols = {"time": np.asarray(time, dtype=np.float64)}
+    for k, v in columns.items():
+        a = np.asarray(v, dtype=np.float64)
+        if a.shape != cols["time"].shape:
+            raise FlightDataError(f"column {k!r} has shape {a.shape}, time has {cols['time'].shape}")
+        cols[k] = a
+    meta = dict(_metadata_items(metadata))
+    return _build(cols, meta, where="record", required=required, mapping=None, line_of=None)
+
+
+def _format_csv(record: FlightRecord, digits: int) -> str:
+    buf = io.StringIO()
+    meta = record.metadata
+    meta.setdefault("format", "jaxgwo flight record v1")
+    meta["sample_rate_hz"] = f"{record.sample_rate:.10g}"
+    meta.setdefault("units", "; ".join(f"{k} [{v}]" for k, v in UNITS.items()))
+    for k in sorted(meta):
+        buf.write(f"# {k}: {meta[k]}\n")
+    names = record.columns
+    buf.write(",".join(names) + "\n")
+    data = np.stack([np.asarray(record[n], dtype=np.float64) for n in names], axis=1)
+    # time keeps more digits than the data so long records stay uniform to 1 %.
+    fmt = ["%.12g"] + [f"%.{digits}g"] * (len(names) - 1)
+    np.savetxt(buf, data, fmt=fmt, delimiter=",")
+    return buf.getvalue()
+
+
+def save_record(record: FlightRecord, path: str | os.PathLike, *, digits: int = 7) -> Path:
+    """Write ``record`` to ``.csv`` (``digits`` significant figures) or ``.npz``, atomically.
+
+    The data goes to a temporary file in the same directory, is flushed and fsynced,
+    then renamed over ``path`` with :func:`os.replace`; a failure leaves no partial file.
+    Returns the path written.
+    """
+    p = Path(path)
+    if p.parent and not p.parent.exists():
+        raise FileNotFoundError(f"directory does not exist: {p.parent}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            if p.suffix.lower() == ".npz":
+                meta = record.metadata
+                meta["sample_rate_hz"] = f"{record.sample_rate:.10g}"
+                arrays = {n: np.asarray(record[n], dtype=np.float64) for n in record.columns}
+                arrays[_NPZ_METADATA_KEY] = np.array(json.dumps(meta, sort_keys=True))
+                np.savez(fh, **arrays)
+            else:
+                fh.write(_format_csv(record, digits).encode("utf-8"))
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, p)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return p
+
+
+# -- the embedded default dataset --------------------------------------------------------
+
+DEFAULT_DATASET_FILES: dict[str, str] = {
+    "lateral": "default_id_lateral.csv",
+    "longitudinal": "default_id_longitudinal.csv",
+    "validation": "default_validation.csv",
+}
+"""Files of the embedded default dataset under ``jaxgwo/data`` (see :func:`default_dataset`)."""
+
+
+class DefaultDataset(eqx.Module):
+    """The embedded default dataset: identification records per channel and a validation record.
+
+    Attributes:
+        identification: ``{"lateral": ..., "longitudinal": ...}``; each record holds two
+            frequency sweeps on that channel's cyclic at different amplitudes (segments
+            listed in its metadata), with pilot-like activity on the other cyclic.
+        validation: multi-step inputs (3-2-1-1 and doublets) on both cyclics.
+    """
+
+    identification: dict[str, FlightRecord]
+    validation: FlightRecord
+
+
+def default_dataset() -> DefaultDataset:
+    """Load the embedded default dataset (simulated Yamaha R-50 hover, 100 Hz).
+
+    Made by the simulator from the R-50 13-state plant with servos, a weak pilot hold
+    loop, Dryden-like gusts and gyro noise, so it carries the model-structure error real
+    flight data has for the paper's 2nd-order-plus-servo model.  Regenerate it with
+    ``jaxgwo simulate --default-dataset DIR``.
+    """
+    import importlib.resources
+
+    root = importlib.resources.files("jaxgwo").joinpath("data")
+    records = {}
+    for name, file_name in DEFAULT_DATASET_FILES.items():
+        with importlib.resources.as_file(root.joinpath(file_name)) as path:
+            records[name] = load_record(path)
+    return DefaultDataset(
+        identification={"lateral": records["lateral"], "longitudinal": records["longitudinal"]},
+        validation=records["validation"],
+    )
