@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import scipy.interpolate
 import scipy.signal
 
 from jaxgwo._preprocess import (
@@ -25,14 +26,34 @@ def test_wild_values_found_and_interpolated():
     bad = u.copy()
     bad[spikes] += np.array([8.0, -6.0, 5.0, 7.0])
     bad[777] = np.nan
-    fixed, idx = reject_wild_values(bad, window=11, threshold=5.0)
+    fixed, idx = reject_wild_values(bad)
     assert set(idx) == set(spikes.tolist()) | {777}
-    # corrected value is the linear interpolation of its neighbours (hand reference)
-    for i in (100, 555, 1234, 777):
-        assert fixed[i] == pytest.approx(0.5 * (bad[i - 1] + bad[i + 1]), abs=1e-12)
-    assert fixed[1999] == pytest.approx(bad[1998])  # end sample: held
+    # interior corrections: a cubic spline through the good samples (scipy reference);
+    # the last sample: linear extrapolation of the two before it (by hand)
+    good = np.setdiff1d(np.arange(u.size), list(idx))
+    inner = [100, 555, 777, 1234]
+    ref = scipy.interpolate.CubicSpline(good, bad[good])(inner)
+    np.testing.assert_allclose(fixed[inner], ref, rtol=1e-12)
+    assert fixed[1999] == pytest.approx(2 * bad[1998] - bad[1997], rel=1e-12)
+    # and all back within a few noise sigmas (0.05) of the clean signal
+    np.testing.assert_allclose(fixed[list(idx)], u[list(idx)], atol=0.2)
     untouched = np.setdiff1d(np.arange(u.size), list(idx))
     np.testing.assert_array_equal(fixed[untouched], bad[untouched])
+
+
+def test_fast_sweep_is_not_mistaken_for_wild_values():
+    # a sweep up to fs/8 (12.5 Hz at 100 Hz): a running median of 11 samples would flag
+    # most of its last third; the leave-one-out cubic leaves it alone and finds the spikes
+    rng = np.random.default_rng(5)
+    t = np.arange(6000) / 100.0
+    u = scipy.signal.chirp(t, 0.1, t[-1], 12.5, method="logarithmic") + 0.05 * rng.standard_normal(t.size)
+    fixed, idx = reject_wild_values(u)
+    assert idx == ()
+    bad = u.copy()
+    bad[[5900, 5950]] += 1.5
+    fixed, idx = reject_wild_values(bad)
+    assert idx == (5900, 5950)
+    np.testing.assert_allclose(fixed[[5900, 5950]], u[[5900, 5950]], atol=0.25)
 
 
 def test_clean_signal_is_not_touched():
