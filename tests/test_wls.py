@@ -159,3 +159,16 @@ def test_paper_table1_does_not_give_eq44():
             # rows 2-5 do not involve S0; eq. (44) misses them by more than the RHS itself
             r = np.asarray(M)[2] @ x - np.asarray(rhs)[2]
             assert abs(r) > abs(float(rhs[2]))
+
+
+def test_fit_from_frequency_response_ignores_masked_nan():
+    from jaxgwo._spectral import FrequencyResponse
+    from jaxgwo._wls import levy_fit_response
+
+    h = np.asarray(paper_model_response(TRUTH, W)).copy()
+    coh = np.ones(W.size)
+    coh[:10] = 0.1  # masked out ...
+    h[:10] = np.nan  # ... and not even finite there
+    fr = FrequencyResponse.from_complex(W, jnp.asarray(h), jnp.asarray(coh))
+    fit = levy_fit_response(fr)
+    np.testing.assert_allclose(np.asarray(fit.theta), _true_theta(), rtol=1e-8)

@@ -81,6 +81,7 @@ __all__ = [
     "LevyFit",
     "levy_design",
     "levy_fit",
+    "levy_fit_response",
     "LevyMoments",
     "MOMENT_NAMES",
     "levy_moments",
@@ -170,6 +171,8 @@ def levy_fit(
     w = jnp.asarray(w, dtype=float)
     H = jnp.asarray(H, dtype=complex)
     weights = jnp.ones_like(w) if weights is None else jnp.asarray(weights, dtype=float)
+    # points with zero weight may hold NaN (masked-out estimates); keep them out of the SVD
+    H = jnp.where(weights > 0, H, jnp.zeros_like(H))
     w0 = jnp.exp(jnp.mean(jnp.log(w))) if frequency_scale is None else frequency_scale
     A, y = levy_design(w, H, num_order, den_order, w0)
     row_w = jnp.sqrt(jnp.concatenate([weights, weights]))
@@ -192,6 +195,31 @@ def levy_fit(
         condition_number=cond,
         frequency_scale=jnp.asarray(w0, dtype=float),
         sk_iterations=sk_iterations,
+    )
+
+
+def levy_fit_response(
+    response,
+    *,
+    sk_iterations: int = 5,
+    relative: bool = True,
+    num_order: int = 0,
+    den_order: int = 4,
+) -> LevyFit:
+    """WLS initial model from a :class:`~jaxgwo._spectral.FrequencyResponse`.
+
+    Weights are the coherence on the masked points, divided by :math:`|H|^2` when
+    ``relative`` (so the fit approximates the relative/log error that the CIFER cost
+    measures rather than being dominated by the largest magnitudes), followed by
+    ``sk_iterations`` Sanathanan-Koerner passes.
+    """
+    mask = jnp.asarray(response.mask) & jnp.isfinite(jnp.abs(response.H))
+    h = jnp.where(mask, response.H, 1.0 + 0.0j)
+    wt = jnp.where(mask, jnp.asarray(response.coherence, dtype=float), 0.0)
+    if relative:
+        wt = wt / jnp.abs(h) ** 2
+    return levy_fit(
+        response.w, h, wt, num_order=num_order, den_order=den_order, sk_iterations=sk_iterations
     )
 
 
