@@ -300,3 +300,25 @@ def test_helicopter_problem_truth_is_a_zero_and_alias_is_outside_box():
     alias_M = ws * ws
     assert alias_M > HELICOPTER_UPPER[2]
     assert isinstance(p.objective, FrequencyFit)
+
+
+def test_run_batch_equals_separate_runs():
+    class Shifted(eqx.Module):
+        centre: jax.Array
+
+        def __call__(self, x):
+            return jnp.sum((x - self.centre) ** 2)
+
+    objs = [Shifted(jnp.full((DIM,), c)) for c in (-1.0, 0.5, 2.0)]
+    lo = jnp.stack([LO, LO + 1.0, LO])
+    hi = jnp.stack([HI, HI, HI - 1.0])
+    keys = jax.random.split(jax.random.key(4), 3)
+    seeds = jnp.zeros((3, 2, DIM))
+    cfg = G.igwo(8, 12)
+    batch = G.run_batch(cfg, G.stack_objectives(objs), lo, hi, keys, init_wolves=seeds)
+    for i, obj in enumerate(objs):
+        single = G.run(cfg, obj, lo[i], hi[i], keys[i], init_wolves=seeds[i])
+        np.testing.assert_allclose(np.asarray(batch.best_position[i]),
+                                   np.asarray(single.best_position), rtol=1e-12, atol=1e-14)
+    with pytest.raises(ValueError, match="inverted bounds"):
+        G.run_batch(cfg, G.stack_objectives(objs), hi, lo, keys)

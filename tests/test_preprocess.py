@@ -117,3 +117,21 @@ def test_preprocess_rejects_bad_time():
         preprocess(t2, {"u": u})
     with pytest.raises(ValueError, match="shape"):
         preprocess(t, {"u": u[:-1]})
+
+
+def test_noise_free_fast_sweep_is_left_alone_and_spikes_still_found():
+    # Regression: a global noise scale, set by the slow start of a noise-free sweep,
+    # flagged ~4,000 samples of its fast end.
+    fs, T = 100.0, 90.0
+    t = np.arange(0.0, T, 1.0 / fs)
+    f0, f1 = 0.15, 12.0
+    x = 0.1 * np.sin(2 * np.pi * f0 * T / np.log(f1 / f0) * (np.exp(t / T * np.log(f1 / f0)) - 1))
+    fixed, idx = reject_wild_values(x)
+    assert idx == ()
+    np.testing.assert_array_equal(fixed, x)
+    spiky = x.copy()
+    where = [500, 4000, 8500]
+    spiky[where] += 0.5
+    fixed, idx = reject_wild_values(spiky)
+    assert list(idx) == where
+    np.testing.assert_allclose(fixed[where], x[where], atol=5e-3)

@@ -530,3 +530,50 @@ def _run_seeds(config, objective, lower, upper, keys, init_wolves, keep_history)
     return jax.vmap(
         lambda k: _run(config, objective, lower, upper, k, init_wolves, keep_history)
     )(keys)
+
+
+def run_batch(
+    config: GreyWolfConfig,
+    objectives,
+    lower: Float[Array, "batch dim"],
+    upper: Float[Array, "batch dim"],
+    keys: PRNGKeyArray,
+    *,
+    init_wolves: Float[Array, "batch m dim"] | None = None,
+    keep_history: bool = True,
+) -> GreyWolfResult:
+    """Several *different* problems of the same shape in one compiled, vmapped call.
+
+    ``objectives`` is a batch of objectives stacked leaf-wise (one ``equinox.Module`` whose
+    array fields carry a leading batch axis, for example several records or channels);
+    ``lower``, ``upper``, ``keys`` and ``init_wolves`` carry the same leading axis.  Result
+    ``i`` equals ``run(config, objective_i, lower[i], upper[i], keys[i], ...)``.
+    """
+    lower = jnp.asarray(lower, dtype=jnp.result_type(float))
+    upper = jnp.asarray(upper, dtype=jnp.result_type(float))
+    if lower.ndim != 2 or upper.shape != lower.shape:
+        raise ValueError(
+            f"batched bounds must be two (batch, dim) arrays of the same shape; got "
+            f"{lower.shape} and {upper.shape}."
+        )
+    for i in range(lower.shape[0]):
+        _check_problem(config, lower[i], upper[i],
+                       None if init_wolves is None else init_wolves[i])
+    if init_wolves is not None:
+        init_wolves = jnp.asarray(init_wolves, dtype=lower.dtype)
+    config, objectives = _strong((config, objectives))
+    return _run_batch(config, objectives, lower, upper, keys, init_wolves, keep_history)
+
+
+@eqx.filter_jit
+def _run_batch(config, objectives, lower, upper, keys, init_wolves, keep_history):
+    def one(obj, lo, hi, k, iw):
+        return _run(config, obj, lo, hi, k, iw, keep_history)
+
+    in_axes = (0, 0, 0, 0, None if init_wolves is None else 0)
+    return eqx.filter_vmap(one, in_axes=in_axes)(objectives, lower, upper, keys, init_wolves)
+
+
+def stack_objectives(objectives):
+    """Stack objectives of identical structure leaf-wise, for :func:`run_batch`."""
+    return jax.tree.map(lambda *xs: jnp.stack(xs), *objectives)
