@@ -189,3 +189,20 @@ def test_default_dataset_loads():
         assert rec.sample_rate >= 100.0
         assert set(rec.inputs) == {"delta_lat", "delta_lon"} and set(rec.outputs) == {"p", "q"}
     assert data.identification["lateral"].duration > 150.0
+
+
+def test_default_dataset_is_identifiable():
+    """Coherence (scipy.signal.coherence, 10.24 s Hann windows) > 0.6 over most of 0.3-10 Hz.
+
+    Measured when generated: 94 % of the band (lateral), 83 % (longitudinal); the loss is
+    above ~8 Hz where the 4th-order roll-off meets gyro noise, as in real flight data.
+    """
+    import scipy.signal
+
+    data = default_dataset()
+    for name, (u, y) in (("lateral", ("delta_lat", "p")), ("longitudinal", ("delta_lon", "q"))):
+        rec = data.identification[name]
+        f, coh = scipy.signal.coherence(np.asarray(rec[u]), np.asarray(rec[y]), fs=rec.sample_rate, nperseg=1024)
+        band = (f >= 0.3) & (f <= 10.0)
+        assert np.mean(coh[band] > 0.6) > 0.75, name
+        assert np.all(coh[(f >= 0.3) & (f <= 6.0)] > 0.5), name

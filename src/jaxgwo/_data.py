@@ -404,6 +404,12 @@ def _format_csv(record: FlightRecord, digits: int) -> str:
     return buf.getvalue()
 
 
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def save_record(record: FlightRecord, path: str | os.PathLike, *, digits: int = 7) -> Path:
     """Write ``record`` to ``.csv`` (``digits`` significant figures) or ``.npz``, atomically.
 
@@ -427,6 +433,7 @@ def save_record(record: FlightRecord, path: str | os.PathLike, *, digits: int = 
                 fh.write(_format_csv(record, digits).encode("utf-8"))
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
         os.replace(tmp, p)
     except BaseException:
         try:

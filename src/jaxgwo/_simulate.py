@@ -404,3 +404,101 @@ def closed_loop_stability(plant: Plant, effects: EffectSet | None = None, hold: 
     osc = jnp.abs(eig.imag) > 1e-8 * jnp.maximum(mag, 1.0)
     damping = jnp.where(osc, -eig.real / jnp.maximum(mag, 1e-300), 1.0)
     return Stability(eigenvalues=eig, max_real=jnp.max(eig.real), min_damping=jnp.min(damping))
+
+
+# -- the embedded default dataset --------------------------------------------------------
+
+DEFAULT_DATASET_SEED = 50
+"""Seed of the embedded default dataset (``jaxgwo simulate --default-dataset DIR``)."""
+
+DEFAULT_DATASET_CONDITIONS = {
+    "sample_rate_hz": 100.0,
+    "gust_rms_rad_s2": (1.0, 0.4),  # pitch inertia ~2.5x roll inertia
+    "gust_time_constant_s": 1.5,
+    "gyro_noise_std_rad_s": 0.002,
+    "sweep_hz": (0.25, 12.0),
+    "sweep_duration_s": 90.0,
+    "sweep_amplitudes": (0.08, 0.14),
+    "off_axis_rms": 0.01,
+}
+
+
+def default_dataset_records(key: PRNGKeyArray | None = None) -> dict[str, FlightRecord]:
+    """Simulate the embedded default dataset from the R-50 hover model.
+
+    Returns ``{"lateral": ..., "longitudinal": ..., "validation": ...}``:
+
+    * ``lateral`` / ``longitudinal`` (identification, 191 s each): 3 s of hover, a
+      90 s Tischler sweep 0.25-12 Hz at amplitude 0.08 on that channel's cyclic, 5 s of
+      hover, the same sweep at amplitude 0.14, 3 s of hover.  The other cyclic carries
+      pilot-like corrections (0.01 rms, 0.4 Hz), and both carry the hold loop's.
+    * ``validation`` (34 s): a lateral 3-2-1-1 (0.08, 0.4 s unit) at 2 s, a longitudinal
+      3-2-1-1 at 10 s, a lateral doublet (0.1, 0.5 s) at 18 s, a longitudinal doublet at
+      25 s, with small corrections on both cyclics.
+
+    All at 100 Hz with Dryden-like gusts (1 rad/s^2 rms, T = 1.5 s), 0.005 rad/s gyro
+    noise and the :meth:`HoldLoop.r50` hold.  ``key`` defaults to
+    ``jax.random.key(DEFAULT_DATASET_SEED)``.
+    """
+    from ._signals import doublet, frequency_sweep, multistep_3211, pilot_corrections
+
+    key = jax.random.key(DEFAULT_DATASET_SEED) if key is None else key
+    c = DEFAULT_DATASET_CONDITIONS
+    fs = c["sample_rate_hz"]
+    plant = R50Plant.default()
+    hold = HoldLoop.r50()
+    dist = Disturbance(gust_rms=c["gust_rms_rad_s2"], gust_time_constant_s=c["gust_time_constant_s"],
+                       noise_std=c["gyro_noise_std_rad_s"])  # fmt: skip
+    common = {
+        "plant": "R-50 hover (Mettler, Tischler & Kanade 2002) with servos 38.2 rad/s, 0.51",
+        "hold_loop": "weak pilot-like attitude/velocity hold (HoldLoop.r50); logged cyclics are totals",
+        "turbulence": (
+            f"Dryden-like gust moment {c['gust_rms_rad_s2'][0]} (roll), {c['gust_rms_rad_s2'][1]} (pitch) "
+            f"rad/s^2 rms, T {c['gust_time_constant_s']} s"
+        ),
+        "noise": f"white gyro noise {c['gyro_noise_std_rad_s']} rad/s rms",
+        "regenerate": "jaxgwo simulate --default-dataset DIR",
+    }
+    k_lat, k_lon, k_val = jax.random.split(key, 3)
+    out: dict[str, FlightRecord] = {}
+    f0, f1 = c["sweep_hz"]
+    dur = c["sweep_duration_s"]
+    a1, a2 = c["sweep_amplitudes"]
+    for name, axis, k in (("lateral", 0, k_lat), ("longitudinal", 1, k_lon)):
+        starts = (3.0, 3.0 + dur + 5.0)
+        total = starts[1] + dur + 3.0
+        n = int(round(total * fs))
+        t = jnp.arange(n, dtype=jnp.float64) / fs
+        sweep = sum(
+            frequency_sweep(t, f_start_hz=f0, f_stop_hz=f1, duration_s=dur, amplitude=a, start_s=s)
+            for a, s in zip((a1, a2), starts)
+        )
+        k_off, k_sim = jax.random.split(k)
+        off = pilot_corrections(k_off, n, fs, rms=c["off_axis_rms"])
+        exc = jnp.stack([sweep, off] if axis == 0 else [off, sweep], axis=1)
+        res = simulate(plant, exc, k_sim, sample_rate_hz=fs, disturbance=dist, hold=hold)
+        cyclic = "delta_lat" if axis == 0 else "delta_lon"
+        meta = dict(common)
+        meta["record"] = f"identification, {name} channel ({cyclic} -> {'p' if axis == 0 else 'q'})"
+        for i, (a, s) in enumerate(zip((a1, a2), starts), start=1):
+            meta[f"segment_{i}"] = f"{s:g}-{s + dur:g} s: sweep {f0:g}-{f1:g} Hz on {cyclic}, amplitude {a:g}"
+        meta["off_axis"] = f"pilot-like corrections {c['off_axis_rms']} rms on the other cyclic"
+        out[name] = res.to_record(meta)
+
+    n = int(round(34.0 * fs))
+    t = jnp.arange(n, dtype=jnp.float64) / fs
+    lat = multistep_3211(t, amplitude=0.08, unit_s=0.4, start_s=2.0) + doublet(t, amplitude=0.1, pulse_s=0.5, start_s=18.0)
+    lon = multistep_3211(t, amplitude=0.08, unit_s=0.4, start_s=10.0) + doublet(t, amplitude=0.1, pulse_s=0.5, start_s=25.0)
+    k1, k2, k_sim = jax.random.split(k_val, 3)
+    lat = lat + pilot_corrections(k1, n, fs, rms=0.5 * c["off_axis_rms"])
+    lon = lon + pilot_corrections(k2, n, fs, rms=0.5 * c["off_axis_rms"])
+    res = simulate(plant, jnp.stack([lat, lon], axis=1), k_sim, sample_rate_hz=fs, disturbance=dist, hold=hold)
+    meta = dict(common)
+    meta["record"] = "validation, both channels, multi-step inputs"
+    meta["segment_1"] = "2-4.8 s: 3-2-1-1 on delta_lat, amplitude 0.08, unit 0.4 s"
+    meta["segment_2"] = "10-12.8 s: 3-2-1-1 on delta_lon, amplitude 0.08, unit 0.4 s"
+    meta["segment_3"] = "18-19 s: doublet on delta_lat, amplitude 0.1, pulse 0.5 s"
+    meta["segment_4"] = "25-26 s: doublet on delta_lon, amplitude 0.1, pulse 0.5 s"
+    meta["off_axis"] = f"pilot-like corrections {0.5 * c['off_axis_rms']} rms on both cyclics"
+    out["validation"] = res.to_record(meta)
+    return out
