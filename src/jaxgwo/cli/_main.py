@@ -8,6 +8,7 @@ import sys
 
 # (module, name) pairs; each module defines add_parser(subparsers) and run(args).
 _SUBCOMMANDS = (
+    "jaxgwo.cli._identify",
     "jaxgwo.cli._compare",
     "jaxgwo.cli._simulate",
 )
