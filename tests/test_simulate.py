@@ -186,9 +186,9 @@ def test_no_retrace_for_new_data_of_same_shape():
 
 
 def test_r50_hold_loop_keeps_hover_and_logs_totals():
-    n = 6000
+    n = 4000
     t = np.arange(n) / FS
-    sweep = np.asarray(frequency_sweep(jnp.asarray(t), f_start_hz=0.25, f_stop_hz=5.0, duration_s=60.0, amplitude=0.1))
+    sweep = np.asarray(frequency_sweep(jnp.asarray(t), f_start_hz=0.25, f_stop_hz=5.0, duration_s=40.0, amplitude=0.1))
     off = np.asarray(pilot_corrections(jax.random.key(1), n, FS, rms=0.01))
     exc = jnp.asarray(np.stack([sweep, off], axis=1))
     dist = Disturbance(gust_rms=1.0, gust_time_constant_s=1.5, noise_std=0.005)
