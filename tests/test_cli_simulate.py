@@ -53,6 +53,7 @@ def test_simulate_r50_npz(tmp_path):
         (["--effect", "saturation:limit=-1"], "limit must be positive"),
         (["--sample-rate", "0"], "--sample-rate must be a positive number"),
         (["--f-stop", "80"], "Nyquist"),
+        (["--effect", "time_delay:delay_s=0.5"], "longer than the simulator's 0.25 s buffer"),
     ],
 )
 def test_bad_input_exits_nonzero_without_output(tmp_path, capsys, argv, message):

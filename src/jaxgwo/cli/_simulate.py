@@ -150,6 +150,12 @@ def run(args) -> int:
     from jaxgwo._simulate import Disturbance, HoldLoop, simulate
 
     effects = effects_from_strings(args.effect)  # validates before any work
+    max_delay = float(max(effects.time_delay.delay_s))
+    if max_delay > 0.25:
+        raise ValueError(f"time_delay delay_s {max_delay:g} s is longer than the simulator's 0.25 s buffer")
+    max_mode = float(max(effects.structural_mode.freq_hz))
+    if max_mode > 150.0:  # the 1 ms RK4 step resolves modes up to ~159 Hz
+        raise ValueError(f"structural_mode freq_hz {max_mode:g} is above the simulator's 150 Hz limit")
     seed = 0 if args.seed is None else args.seed
     plant = R50Plant.default() if args.plant == "r50" else PaperPlant.default()
     hold_on = args.hold == "on" or (args.hold == "auto" and args.plant == "r50")
