@@ -20,7 +20,8 @@ from jaxgwo._wls import (
 
 TRUTH = jnp.array([500.0, 0.1, 150.0, 40.0, 0.7])  # K, tau, M, omega_s, zeta_s
 W = jnp.geomspace(1.0, 60.0, 200)
-SEED_JSON = Path("/work/shared/reference/seed_paper_results.json")
+# the paper's published numbers (a copy of shared/reference/seed_paper_results.json)
+SEED_JSON = Path(__file__).resolve().parent / "data" / "seed_paper_results.json"
 
 
 def _true_theta():
