@@ -141,3 +141,18 @@ def test_cli_identify_bad_input_leaves_no_output(tmp_path, recs, capsys):
     assert rc == 2
     assert "no such flight-data file" in capsys.readouterr().err
     assert not out_json.exists()
+
+
+def test_noise_free_paper_response_recovers_all_parameters_within_0p1_percent():
+    from jaxgwo._identify import identify_responses
+    from jaxgwo._spectral import FrequencyResponse
+
+    w = jnp.geomspace(1.0, 60.0, 200)
+    truth = PaperModel.from_array(jnp.asarray(TRUTH))
+    fr = FrequencyResponse.from_complex(w, truth.frequency_response(w))
+    res = identify_responses({"lateral": fr}, IdentifySettings(method="wls-igwo+polish",
+                                                               wolves=20, iterations=60))
+    p = np.asarray(res["lateral"].model.to_array())
+    np.testing.assert_allclose(p, TRUTH, rtol=1e-3)
+    assert res["lateral"].cost_J < 1e-6
+    assert np.isnan(res["lateral"].mse)

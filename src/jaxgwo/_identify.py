@@ -49,7 +49,7 @@ from ._data import CHANNELS, FlightRecord
 from ._metrics import ParameterUncertainty, parameter_uncertainty, r_squared, rms_error, theil_inequality
 from ._models import PaperModel, ParameterMap, QuarticModel, canonicalize_paper_params
 from ._preprocess import PreprocessReport, preprocess
-from ._spectral import FrequencyResponse, composite_frequency_response
+from ._spectral import FrequencyResponse, composite_frequency_response, zoh_correction
 from ._wls import levy_fit_response
 
 METHODS = ("wls", "traditional", "wls-gwo", "wls-igwo", "wls-igwo+polish")
@@ -67,6 +67,9 @@ class IdentifySettings:
     parameter (``zeta_s`` gets ``f`` too, but is capped to ``[0.05, 3]``).
     ``seed_spread``: standard deviation, in natural-log units, of the seeded wolves around
     the WLS start; ``seeded_fraction`` of the pack is seeded, the rest uniform in the box.
+    ``zoh_correction``: divide the held input's half-sample delay and droop out of the
+    measured response (:func:`jaxgwo._spectral.zoh_correction`); turn off for data whose
+    input was not held between samples.
     """
 
     method: str = "wls-igwo"
@@ -82,6 +85,7 @@ class IdentifySettings:
     seed_spread: float = 0.1
     seeded_fraction: float = 0.5
     polish_steps: int = 200
+    zoh_correction: bool = True
     wild_values: bool = True
     detrend: str | None = "linear"
     lowpass_hz: float | None = None
@@ -324,6 +328,7 @@ class _Prepared:
 
 
 def _prepare(records, channel, settings) -> _Prepared:
+    """Records of one channel -> preprocessing -> composite response -> WLS start."""
     if not records:
         raise IdentificationError(f"no identification records for the {channel} channel.")
     fs = _check_rates(records)
@@ -342,9 +347,16 @@ def _prepare(records, channel, settings) -> _Prepared:
         )
     except ValueError as err:
         raise IdentificationError(f"{channel}: {err}") from err
+    if settings.zoh_correction:
+        response = zoh_correction(response, fs)
+    return _prepare_response(response, channel, settings, pairs, reports, 1.0 / fs)
+
+
+def _prepare_response(response, channel, settings, pairs=(), reports=(), dt=float("nan")):
+    """A measured response -> sign normalisation -> WLS start -> CIFER objective."""
     if response.n_passing < 20:
         raise IdentificationError(
-            f"{channel}: only {response.n_passing} of {settings.n_frequencies} frequencies "
+            f"{channel}: only {response.n_passing} of {response.w.shape[0]} frequencies "
             f"have coherence >= {settings.coherence_threshold}; the CIFER cost needs 20. "
             "Use a longer or stronger sweep, or lower --coherence."
         )
@@ -355,7 +367,40 @@ def _prepare(records, channel, settings) -> _Prepared:
         start = PaperModel.from_array(start.to_array() * jnp.asarray([-1.0, 1, 1, 1, 1]))
     pmap = ParameterMap.for_model(start)
     objective = CiferObjective.from_response(response_n, pmap)
-    return _Prepared(channel, pairs, reports, 1.0 / fs, response, sign, start, note, objective)
+    return _Prepared(channel, list(pairs), tuple(reports), dt, response, sign, start, note,
+                     objective)
+
+
+def independent_points(response: FrequencyResponse) -> float:
+    """Effective number of independent frequency points behind ``J``.
+
+    Log-spaced points closer than the resolution ``2 pi / T_window`` of the window that
+    supplied them share FFT bins, so their errors are correlated.  Each passing point
+    counts ``min(1, spacing / resolution)``; an analytic response (no window) counts 1.
+    """
+    w = np.asarray(response.w, float)
+    mask = np.asarray(response.mask)
+    spacing = np.gradient(w)
+    win = np.asarray(response.window_s, float)
+    resolution = np.where(np.isfinite(win) & (win > 0), 2.0 * np.pi / np.where(win > 0, win, 1.0), 0.0)
+    share = np.where(resolution > 0, np.minimum(1.0, spacing / np.where(resolution > 0, resolution, 1.0)), 1.0)
+    return float(np.sum(share[mask]))
+
+
+def _dependence_corrected(unc: ParameterUncertainty, response: FrequencyResponse):
+    """Scale Cramer-Rao bounds by ``sqrt(m / m_eff)``: the Fisher information of ``J``
+    counts each of its ``m`` points as independent, which over-states it when points
+    share FFT bins (:func:`independent_points`)."""
+    m = float(np.sum(np.asarray(response.mask)))
+    m_eff = independent_points(response)
+    f = math.sqrt(m / m_eff) if m_eff > 0 else float("inf")
+    return eqx.tree_at(
+        lambda u: (u.fisher, u.covariance, u.cramer_rao, u.cramer_rao_percent,
+                   u.insensitivity, u.insensitivity_percent),
+        unc,
+        (unc.fisher / f**2, unc.covariance * f**2, unc.cramer_rao * f,
+         unc.cramer_rao_percent * f, unc.insensitivity * f, unc.insensitivity_percent * f),
+    )
 
 
 def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings,
@@ -368,8 +413,11 @@ def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings
     flip = jnp.asarray([prep.sign, 1.0, 1.0, 1.0, 1.0])
     model = PaperModel.from_array(p * flip)
     wls_model = PaperModel.from_array(prep.start.to_array() * flip)
-    unc = parameter_uncertainty(prep.objective.residuals_from_params, p,
-                                ("K", "tau", "M", "omega_s", "zeta_s"))
+    unc = _dependence_corrected(
+        parameter_uncertainty(prep.objective.residuals_from_params, p,
+                              ("K", "tau", "M", "omega_s", "zeta_s")),
+        prep.response,
+    )
     # the sign flip leaves every bound's size unchanged; report values with their true sign
     unc = eqx.tree_at(lambda u: u.values, unc, unc.values * flip)
     val = None
@@ -384,7 +432,7 @@ def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings
         response=prep.response,
         cost_J=cost,
         wls_cost_J=wls_cost,
-        mse=_time_mse(model, prep.pairs, prep.dt),
+        mse=_time_mse(model, prep.pairs, prep.dt) if prep.pairs else float("nan"),
         convergence=np.asarray(convergence),
         uncertainty=unc,
         evaluations=int(evaluations),
@@ -405,6 +453,21 @@ def identify_channels(
     held out: nothing is fitted to them.
     """
     preps = [_prepare(list(recs), ch, settings) for ch, recs in records.items()]
+    return _identify_prepared(preps, settings, validation)
+
+
+def identify_responses(
+    responses: dict[str, FrequencyResponse],
+    settings: IdentifySettings = IdentifySettings(),
+) -> dict[str, ChannelIdentification]:
+    """Identify the paper model from already-measured frequency responses (for example a
+    CIFER export, or an analytic response), one batched optimiser call for all channels.
+    ``fit.mse`` is NaN: there is no time history to simulate."""
+    preps = [_prepare_response(r, ch, settings) for ch, r in responses.items()]
+    return _identify_prepared(preps, settings, None)
+
+
+def _identify_prepared(preps, settings, validation):
     key = jax.random.key(settings.seed)
     t0 = time.perf_counter()
     method = settings.method

@@ -432,3 +432,23 @@ def composite_frequency_response(
         window_s=jnp.asarray(win_s),
         coherence_threshold=float(coherence_threshold),
     )
+
+
+def zoh_correction(response: FrequencyResponse, sample_rate_hz: float) -> FrequencyResponse:
+    r"""Remove the zero-order hold of sampled input data from a measured response.
+
+    An input logged at the samples and *held* between them (as an autopilot's servo
+    commands are, and as :func:`jaxgwo.simulate` applies them) reaches a continuous plant
+    :math:`G` through the hold, so the sampled data's response is, to first order in the
+    aliasing,
+
+    .. math:: H(\omega) = G(j\omega)\, e^{-j\omega T/2}\, \frac{\sin(\omega T/2)}{\omega T/2}
+
+    with :math:`T = 1/f_s`: a half-sample delay (18 deg at 10 Hz for 100 Hz data) and a small
+    magnitude droop.  A continuous model fitted to :math:`H` absorbs them into its servo
+    parameters; dividing them out lets it estimate :math:`G` itself.
+    """
+    w = np.asarray(response.w, dtype=float)
+    half = 0.5 * w / float(sample_rate_hz)
+    hold = np.exp(-1j * half) * np.sinc(half / np.pi)
+    return eqx.tree_at(lambda r: r.H, response, response.H / jnp.asarray(hold))
