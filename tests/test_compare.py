@@ -41,7 +41,7 @@ def test_cli_compare_writes_table_and_plot(tmp_path, capsys):
     assert "| helicopter 5-parameter fit | igwo |" in out and "| F9 rastrigin | gwo |" in out
     assert md.read_text().startswith("Final error")
     assert png.stat().st_size > 1000
-    assert not list(tmp_path.glob(".tmp-*"))
+    assert not list(tmp_path.glob(".*.tmp"))
 
 
 def test_cli_compare_bad_input_is_one_line_error(tmp_path, capsys):

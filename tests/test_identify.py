@@ -125,7 +125,7 @@ def test_cli_identify_end_to_end(tmp_path, recs, capsys):
     assert len(ch["convergence"]) == 20
     assert ch["validation"]["r2"] > 0.99
     assert out_png.stat().st_size > 10_000
-    assert not list(tmp_path.glob(".tmp-*"))
+    assert not list(tmp_path.glob(".*.tmp"))
 
 
 def test_cli_identify_bad_input_leaves_no_output(tmp_path, recs, capsys):

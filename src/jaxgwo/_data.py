@@ -24,7 +24,6 @@ import csv
 import io
 import json
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -32,6 +31,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
+
+from ._atomic import atomic_output
 
 INPUT_NAMES: tuple[str, ...] = ("delta_lat", "delta_lon")
 """Canonical input columns: normalised lateral and longitudinal cyclic (dimensionless)."""
@@ -404,12 +405,6 @@ def _format_csv(record: FlightRecord, digits: int) -> str:
     return buf.getvalue()
 
 
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
 def save_record(record: FlightRecord, path: str | os.PathLike, *, digits: int = 7) -> Path:
     """Write ``record`` to ``.csv`` (``digits`` significant figures) or ``.npz``, atomically.
 
@@ -418,29 +413,15 @@ def save_record(record: FlightRecord, path: str | os.PathLike, *, digits: int = 
     Returns the path written.
     """
     p = Path(path)
-    if p.parent and not p.parent.exists():
-        raise FileNotFoundError(f"directory does not exist: {p.parent}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            if p.suffix.lower() == ".npz":
-                meta = record.metadata
-                meta["sample_rate_hz"] = f"{record.sample_rate:.10g}"
-                arrays = {n: np.asarray(record[n], dtype=np.float64) for n in record.columns}
-                arrays[_NPZ_METADATA_KEY] = np.array(json.dumps(meta, sort_keys=True))
-                np.savez(fh, **arrays)
-            else:
-                fh.write(_format_csv(record, digits).encode("utf-8"))
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    with atomic_output(p, "wb") as fh:
+        if p.suffix.lower() == ".npz":
+            meta = record.metadata
+            meta["sample_rate_hz"] = f"{record.sample_rate:.10g}"
+            arrays = {n: np.asarray(record[n], dtype=np.float64) for n in record.columns}
+            arrays[_NPZ_METADATA_KEY] = np.array(json.dumps(meta, sort_keys=True))
+            np.savez(fh, **arrays)
+        else:
+            fh.write(_format_csv(record, digits).encode("utf-8"))
     return p
 
 
