@@ -156,3 +156,13 @@ def test_noise_free_paper_response_recovers_all_parameters_within_0p1_percent():
     np.testing.assert_allclose(p, TRUTH, rtol=1e-3)
     assert res["lateral"].cost_J < 1e-6
     assert np.isnan(res["lateral"].mse)
+
+
+def test_paper_mode_method_reaches_the_traditional_optimum(recs):
+    st = dict(SMALL, iterations=60)
+    paper = identify_channels({"lateral": recs[:1]}, IdentifySettings(method="paper", **st))
+    trad = identify_channels({"lateral": recs[:1]}, IdentifySettings(method="traditional", **st))
+    p, t = paper["lateral"], trad["lateral"]
+    assert p.cost_J <= p.wls_cost_J + 1e-9
+    assert p.cost_J == pytest.approx(t.cost_J, rel=0.02)
+    assert float(p.model.K) < 0 and p.evaluations > 0

@@ -16,7 +16,9 @@ Per channel (lateral ``p/delta_lat`` or longitudinal ``q/delta_lon``):
      baseline; ``scipy.optimize.least_squares`` on the residual vector with JAX's Jacobian);
    * ``wls-gwo`` / ``wls-igwo``: the pack is seeded around the WLS solution (in
      log-parameters) and searches a box around it;
-   * ``wls-igwo+polish``: then an optax L-BFGS polish of the best wolf, in log-parameters.
+   * ``wls-igwo+polish``: then an optax L-BFGS polish of the best wolf, in log-parameters;
+   * ``paper``: the paper's own parameterisation: IGWO over the Levy moment sums of
+     eq. (29) around their WLS values (:mod:`jaxgwo._paper_mode`), factored at the end.
 
 5. **Validate** on held-out records: the model is simulated from the measured input and
    compared with the measured output (R^2 of eq. 46, Theil's inequality coefficient, RMS),
@@ -52,7 +54,7 @@ from ._preprocess import PreprocessReport, preprocess
 from ._spectral import FrequencyResponse, composite_frequency_response, zoh_correction
 from ._wls import levy_fit_response
 
-METHODS = ("wls", "traditional", "wls-gwo", "wls-igwo", "wls-igwo+polish")
+METHODS = ("wls", "traditional", "wls-gwo", "wls-igwo", "wls-igwo+polish", "paper")
 
 
 class IdentificationError(ValueError):
@@ -320,7 +322,7 @@ class _Prepared:
     pairs: list
     reports: tuple
     dt: float
-    response: FrequencyResponse  # sign-normalised
+    response: FrequencyResponse  # as measured (the objective holds the sign-normalised one)
     sign: float
     start: PaperModel  # sign-normalised WLS start
     start_note: str
@@ -363,7 +365,11 @@ def _prepare_response(response, channel, settings, pairs=(), reports=(), dt=floa
     sign = _gain_sign(response)
     response_n = _flip(response, sign)
     start, note = wls_start(response_n, settings.sk_iterations)
-    if float(start.K) < 0:  # the sweep's phase said positive, WLS disagrees: trust WLS
+    if float(start.K) < 0:
+        # The low-frequency phase guessed the gain's sign wrong and WLS disagrees: trust
+        # WLS.  -start fits -response_n exactly as start fits response_n.
+        sign = -sign
+        response_n = _flip(response, sign)
         start = PaperModel.from_array(start.to_array() * jnp.asarray([-1.0, 1, 1, 1, 1]))
     pmap = ParameterMap.for_model(start)
     objective = CiferObjective.from_response(response_n, pmap)
@@ -475,6 +481,24 @@ def _identify_prepared(preps, settings, validation):
         xs = [p.objective.parameter_map.to_vector(p.start) for p in preps]
         histories = [np.zeros(0)] * len(preps)
         evals = [0] * len(preps)
+    elif method == "paper":
+        from ._paper_mode import identify_paper_mode
+
+        xs, histories, evals = [], [], []
+        for i, p in enumerate(preps):
+            r = identify_paper_mode(
+                _flip(p.response, p.sign), key=jax.random.fold_in(key, i),
+                wolves=settings.wolves, iterations=settings.iterations,
+                sk_iterations=settings.sk_iterations,
+            )
+            if r.paper_model is None:
+                raise IdentificationError(
+                    f"{p.channel}: the paper-mode quartic does not factor into the paper "
+                    f"model ({r.reason}); use another --method."
+                )
+            xs.append(p.objective.parameter_map.to_vector(r.paper_model.canonical()))
+            histories.append(np.asarray(r.convergence))
+            evals.append(int(r.evaluations))
     elif method == "traditional":
         xs, histories, evals = [], [], []
         for p in preps:
