@@ -114,6 +114,12 @@ from ._identify import validate as validate  # noqa: E402
 from ._identify import wls_start as wls_start  # noqa: E402
 from ._identify import polish as polish  # noqa: E402
 
+from ._identify import identify_responses as identify_responses  # noqa: E402
+from ._identify import independent_points as independent_points  # noqa: E402
+from ._paper_mode import MomentObjective as MomentObjective  # noqa: E402
+from ._paper_mode import PaperModeResult as PaperModeResult  # noqa: E402
+from ._paper_mode import identify_paper_mode as identify_paper_mode  # noqa: E402
+from ._spectral import zoh_correction as zoh_correction  # noqa: E402
 __version__ = "0.1.0"
 
 __all__ = [
@@ -137,8 +143,10 @@ __all__ = [
     "LevyMoments",
     "METHODS",
     "MOMENT_NAMES",
+    "MomentObjective",
     "Multisine",
     "PHASE_WEIGHT",
+    "PaperModeResult",
     "PaperModel",
     "PaperPlant",
     "ParameterMap",
@@ -175,7 +183,10 @@ __all__ = [
     "frequency_sweep",
     "gwo",
     "identify_channels",
+    "identify_paper_mode",
+    "identify_responses",
     "igwo",
+    "independent_points",
     "init",
     "levy_design",
     "levy_fit",
@@ -223,4 +234,5 @@ __all__ = [
     "validate",
     "wls_start",
     "wrap_degrees",
+    "zoh_correction",
 ]
