@@ -118,7 +118,33 @@ def _model_response(pmap: ParameterMap, p, w):
     return cls.from_array(p).frequency_response(w)
 
 
-class CiferObjective(eqx.Module):
+class _ParameterObjective(eqx.Module):
+    """What every objective shares: it is defined on physical parameters
+    (``residuals_from_params``, ``cost_from_params``) and evaluated on the optimiser's flat
+    vector ``x`` through its ``parameter_map``."""
+
+    parameter_map: eqx.AbstractVar[ParameterMap]
+
+    def residuals_from_params(self, p):
+        raise NotImplementedError
+
+    def cost_from_params(self, p):
+        raise NotImplementedError
+
+    def residuals(self, x: Float[Array, " dim"]) -> Float[Array, " m"]:
+        """Residual vector of the flat vector ``x`` (cost = sum of squares)."""
+        return self.residuals_from_params(self.parameter_map.params_from_vector(x))
+
+    def cost(self, model: PaperModel | QuarticModel) -> Float[Array, ""]:
+        """The cost of a model object (of the map's kind)."""
+        return self.cost_from_params(model.to_array())
+
+    def __call__(self, x: Float[Array, " dim"]) -> Float[Array, ""]:
+        """The cost of the flat vector ``x`` (log-parameters, see ``ParameterMap``)."""
+        return self.cost_from_params(self.parameter_map.params_from_vector(x))
+
+
+class CiferObjective(_ParameterObjective):
     """CIFER cost ``J`` of a parameter vector against a measured response (module doc).
 
     Build with :meth:`from_response`.  ``weight`` already holds ``W_gamma`` times the
@@ -179,19 +205,9 @@ class CiferObjective(eqx.Module):
         j = 20.0 / self.n * jnp.sum(self.weight * (e_db**2 + self.phase_weight * e_ph**2))
         return _finite_or_inf(j)
 
-    def residuals(self, x: Float[Array, " dim"]) -> Float[Array, " 2freq"]:
-        return self.residuals_from_params(self.parameter_map.params_from_vector(x))
-
-    def cost(self, model: PaperModel | QuarticModel) -> Float[Array, ""]:
-        """``J`` of a model object (of the map's kind)."""
-        return self.cost_from_params(model.to_array())
-
-    def __call__(self, x: Float[Array, " dim"]) -> Float[Array, ""]:
-        """``J`` of the flat vector ``x`` (log-parameters, see ``ParameterMap``)."""
-        return self.cost_from_params(self.parameter_map.params_from_vector(x))
 
 
-class ComplexErrorObjective(eqx.Module):
+class ComplexErrorObjective(_ParameterObjective):
     """Complex relative error ``(1/n) sum W |T_model/T_meas - 1|^2`` (``W`` = mask, or the
     coherence weighting times the mask)."""
 
@@ -234,17 +250,9 @@ class ComplexErrorObjective(eqx.Module):
     def cost_from_params(self, p: Float[Array, " dim"]) -> Float[Array, ""]:
         return _finite_or_inf(jnp.sum(self.residuals_from_params(p) ** 2))
 
-    def residuals(self, x: Float[Array, " dim"]) -> Float[Array, " 2freq"]:
-        return self.residuals_from_params(self.parameter_map.params_from_vector(x))
-
-    def cost(self, model: PaperModel | QuarticModel) -> Float[Array, ""]:
-        return self.cost_from_params(model.to_array())
-
-    def __call__(self, x: Float[Array, " dim"]) -> Float[Array, ""]:
-        return self.cost_from_params(self.parameter_map.params_from_vector(x))
 
 
-class TimeDomainObjective(eqx.Module):
+class TimeDomainObjective(_ParameterObjective):
     """The paper's fitness: mean squared error of the simulated output (sec. 3.3)."""
 
     t: Float[Array, " time"]
@@ -257,7 +265,7 @@ class TimeDomainObjective(eqx.Module):
         t, u, y = (jnp.asarray(a, dtype=float) for a in (t, u, y))
         if not (t.ndim == 1 and t.shape == u.shape == y.shape and t.shape[0] >= 2):
             raise ValueError("t, u and y must be 1-D arrays of the same length (>= 2)")
-        return cls(t, u, y, parameter_map)
+        return cls(t=t, u=u, y=y, parameter_map=parameter_map)
 
     def residuals_from_params(self, p: Float[Array, " dim"]) -> Float[Array, " time"]:
         cls = PaperModel if self.parameter_map.kind == "paper" else QuarticModel
@@ -267,14 +275,6 @@ class TimeDomainObjective(eqx.Module):
     def cost_from_params(self, p: Float[Array, " dim"]) -> Float[Array, ""]:
         return _finite_or_inf(jnp.sum(self.residuals_from_params(p) ** 2))
 
-    def residuals(self, x: Float[Array, " dim"]) -> Float[Array, " time"]:
-        return self.residuals_from_params(self.parameter_map.params_from_vector(x))
-
-    def cost(self, model: PaperModel | QuarticModel) -> Float[Array, ""]:
-        return self.cost_from_params(model.to_array())
-
-    def __call__(self, x: Float[Array, " dim"]) -> Float[Array, ""]:
-        return self.cost_from_params(self.parameter_map.params_from_vector(x))
 
 
 def cifer_cost(
