@@ -10,7 +10,8 @@
   validation record (``benchmarks/validation_sets.py``), each with its own key and its own
   3-2-1-1 unit and doublet pulse length (listed in the output).  Each record carries both
   channels' inputs, as the embedded one does; a channel's R^2 is over the whole record.
-* Methods: ``traditional``, ``wls-gwo``, ``wls-igwo``, ``wls-igwo+polish`` (and ``wls``
+* Methods: ``traditional``, ``wls-gwo``, ``wls-igwo``, ``wls-igwo+polish``, ``paper`` (IGWO over
+  the eq. (29) moment sums) (and ``wls``
   for context), 50 wolves x 500 iterations; R^2 per validation set with seed 0, means,
   and the paper's relative difference ``(mean R2_igwo - mean R2_x) / mean R2_x``.
 * Seeds: the stochastic methods are repeated over ``--seeds`` optimiser seeds; the spread
@@ -45,8 +46,8 @@ from validation_sets import multistep_validation  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CHANNELS = ("lateral", "longitudinal")
-METHODS = ("wls", "traditional", "wls-gwo", "wls-igwo", "wls-igwo+polish")
-STOCHASTIC = ("wls-gwo", "wls-igwo", "wls-igwo+polish")
+METHODS = ("wls", "traditional", "wls-gwo", "wls-igwo", "wls-igwo+polish", "paper")
+STOCHASTIC = ("wls-gwo", "wls-igwo", "wls-igwo+polish", "paper")
 EQUAL_BUDGET = "wls-gwo 400 it"
 UNITS_S = (0.3, 0.35, 0.4, 0.45, 0.5)
 PULSES_S = (0.4, 0.5, 0.6, 0.7)
@@ -117,7 +118,8 @@ def main() -> int:
     fig, axes = plt.subplots(2, 2, figsize=(12, 8.5))
     sets = np.arange(1, args.sets + 1)
     styles = {"traditional": ("s-", "tab:gray"), "wls-gwo": ("^-", "tab:blue"),
-              "wls-igwo": ("o-", "tab:red"), "wls-igwo+polish": ("x--", "tab:green")}
+              "wls-igwo": ("o-", "tab:red"), "wls-igwo+polish": ("x--", "tab:green"),
+              "paper": ("d:", "tab:purple")}
     for j, c in enumerate(CHANNELS):
         ax = axes[0, j]
         for m, (st, col) in styles.items():
@@ -232,7 +234,7 @@ def main() -> int:
                  f"median J igwo/gwo = {j_ratio:.4f} over {args.seeds} seeds each.")
     L.append("")
     worst = {c: rel(max(max(seedJ[m, c]) for m in STOCHASTIC), J["traditional", c]) for c in CHANNELS}
-    L.append("All four methods minimise the same cost J from the same WLS start, and all end at or "
+    L.append("All the methods minimise the same cost J from the same WLS start, and all end at or "
              "near the same minimum (the traditional LM fit and the polished IGWO reach it exactly; the "
              "100-start reference in identify_acceptance.md finds no better one); the worst of all "
              "seeds is " + ", ".join(f"{worst[c]:+.2f} % ({c})" for c in CHANNELS) + " above it. Their "
