@@ -1,0 +1,283 @@
+r"""Sim-to-real gap diagnosis, step 2: *where* the identified model departs from the data.
+
+Four signature detectors, each comparing a departure with the data's own noise:
+
+* :func:`frequency_mismatch`: model minus measured response, magnitude (dB) and phase
+  (deg), against the random-error bounds of the H1 estimate.  With the normalised random
+  error :math:`\varepsilon_r = \sqrt{1-\gamma^2}/(|\gamma|\sqrt{2 n_d})` (Bendat & Piersol;
+  Tischler & Remple ch. 7) the 1-sigma bounds are :math:`20\log_{10}(1+\varepsilon_r)` dB
+  and :math:`\varepsilon_r` rad.  Points outside ``nsigma`` bounds form the flagged bands;
+  a weighted straight line through the phase error gives the equivalent delay and the
+  magnitude trend (a pure delay: flat magnitude, phase lag linear in frequency).
+* :func:`residual_tests`: on the held-out records, the residual's whiteness (Ljung-Box),
+  its cross-correlation with the input (peak and lag) and its spectrum (Welch).
+* :func:`amplitude_dependence`: responses estimated from the low- and high-amplitude
+  halves of the identification records, compared within their random errors.
+* :func:`noise_limited_bands`: where coherence is lost (unmeasured disturbance or noise,
+  not model structure).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.signal
+import scipy.stats
+
+from ._spectral import FrequencyResponse, composite_frequency_response
+
+__all__ = [
+    "FrequencyMismatch",
+    "ResidualTests",
+    "AmplitudeDependence",
+    "frequency_mismatch",
+    "residual_tests",
+    "amplitude_dependence",
+    "noise_limited_bands",
+    "bands_from_flags",
+]
+
+_DB_PER_NEPER = 20.0 / np.log(10.0)
+
+
+def bands_from_flags(f_hz: np.ndarray, flags: np.ndarray, *, max_gap: int = 1, min_points: int = 2) -> list[list[float]]:
+    """Contiguous runs of ``flags`` (gaps of up to ``max_gap`` unflagged points bridged),
+    each ``[f_start, f_end]`` in Hz; runs shorter than ``min_points`` are dropped."""
+    idx = np.flatnonzero(flags)
+    if idx.size == 0:
+        return []
+    runs, start, prev = [], idx[0], idx[0]
+    for i in idx[1:]:
+        if i - prev > max_gap + 1:
+            runs.append((start, prev))
+            start = i
+        prev = i
+    runs.append((start, prev))
+    return [[float(f_hz[a]), float(f_hz[b])] for a, b in runs if np.sum(flags[a : b + 1]) >= min_points]
+
+
+@dataclass(frozen=True)
+class FrequencyMismatch:
+    """Model-minus-measured response on the passing points, with 1-sigma random-error bounds."""
+
+    f_hz: np.ndarray
+    magnitude_error_db: np.ndarray
+    phase_error_deg: np.ndarray
+    magnitude_bound_db: np.ndarray
+    phase_bound_deg: np.ndarray
+    flagged: np.ndarray
+    bands_hz: list
+    worst_hz: float
+    equivalent_delay_s: float
+    """Delay of the best straight line through the phase error (positive: the data lag the model)."""
+    equivalent_delay_sigma_s: float
+    magnitude_slope_db_per_decade: float
+    """Weighted trend of the magnitude error (model minus data) against log10 frequency."""
+    resonance_hz: float | None
+    """Frequency of a narrow magnitude departure (a peak or notch of the data), if any."""
+    nsigma: float
+
+
+def frequency_mismatch(response: FrequencyResponse, model_response: np.ndarray, *, nsigma: float = 3.0) -> FrequencyMismatch:
+    """Compare ``model_response`` (complex, on ``response.w``) with the measured response.
+
+    The random error ignores bias and the correlation of neighbouring log-spaced points,
+    so bands are flagged only where a departure exceeds ``nsigma`` (default 3) bounds on at
+    least two neighbouring points.
+    """
+    mask = np.asarray(response.mask) & np.isfinite(np.abs(np.asarray(response.H)))
+    w = np.asarray(response.w)[mask]
+    H = np.asarray(response.H)[mask]
+    G = np.asarray(model_response)[mask]
+    eps = np.asarray(response.random_error)[mask]
+    eps = np.where(np.isfinite(eps), eps, 1.0)
+    mag = _DB_PER_NEPER * (np.log(np.abs(G)) - np.log(np.abs(H)))
+    ph = np.rad2deg(np.angle(G / H))
+    mag_b = 20.0 * np.log10(1.0 + eps)
+    ph_b = np.rad2deg(eps)
+    z = np.maximum(np.abs(mag) / mag_b, np.abs(ph) / ph_b)
+    flagged = z > nsigma
+    f_hz = w / (2.0 * np.pi)
+    bands = bands_from_flags(f_hz, flagged)
+    worst = float(f_hz[np.argmax(z)]) if z.size else float("nan")
+    # phase error = model - data = +w * delay for a data delay: weighted line through the origin
+    # plus an offset, in radians, weighted by 1/eps^2
+    wt = 1.0 / np.maximum(eps, 1e-6) ** 2
+    X = np.stack([np.ones_like(w), w], axis=1)
+    XtW = X.T * wt
+    cov = np.linalg.pinv(XtW @ X)
+    coef = cov @ (XtW @ np.deg2rad(ph))
+    resid = np.deg2rad(ph) - X @ coef
+    s2 = float(np.sum(wt * resid**2) / max(1, w.size - 2))
+    delay = float(coef[1])
+    delay_sigma = float(np.sqrt(max(cov[1, 1] * s2, 0.0)))
+    lx = np.stack([np.ones_like(w), np.log10(w)], axis=1)
+    mcoef = np.linalg.lstsq(lx * np.sqrt(wt)[:, None], mag * np.sqrt(wt), rcond=None)[0]
+    # a narrow departure: the magnitude error, minus its smooth trend, peaks far above the bound
+    smooth = scipy.signal.savgol_filter(mag, min(31, (w.size // 2) * 2 - 1), 2) if w.size >= 9 else mag
+    dev = np.abs(mag - smooth) / mag_b
+    res_hz = float(f_hz[np.argmax(dev)]) if dev.size and np.max(dev) > 2.0 * nsigma else None
+    return FrequencyMismatch(
+        f_hz=f_hz, magnitude_error_db=mag, phase_error_deg=ph, magnitude_bound_db=mag_b,
+        phase_bound_deg=ph_b, flagged=flagged, bands_hz=bands, worst_hz=worst,
+        equivalent_delay_s=delay, equivalent_delay_sigma_s=delay_sigma,
+        magnitude_slope_db_per_decade=float(mcoef[1]), resonance_hz=res_hz, nsigma=nsigma,
+    )  # fmt: skip
+
+
+def noise_limited_bands(response: FrequencyResponse) -> list[list[float]]:
+    """Bands (Hz) where the coherence falls below the mask threshold: there the output is
+    dominated by what the input does not explain (gusts, noise, off-axis inputs), and a
+    departure says nothing about the model's structure."""
+    f_hz = np.asarray(response.w) / (2.0 * np.pi)
+    low = np.asarray(response.coherence) < response.coherence_threshold
+    return bands_from_flags(f_hz, low)
+
+
+@dataclass(frozen=True)
+class ResidualTests:
+    """Time-domain tests of the residual ``measured - predicted`` on held-out records."""
+
+    white: bool
+    ljung_box_p: float
+    acf_lags_s: np.ndarray = field(repr=False)
+    acf: np.ndarray = field(repr=False)
+    xcorr_lags_s: np.ndarray = field(repr=False)
+    xcorr: np.ndarray = field(repr=False)
+    input_residual_peak_lag_s: float
+    input_residual_peak: float
+    xcorr_bound: float
+    """Approximate 99 % bound of the cross-correlation for independent signals."""
+    psd_f_hz: np.ndarray = field(repr=False)
+    psd: np.ndarray = field(repr=False)
+    psd_peak_hz: float
+    correlation_time_s: float
+    """Integral time scale of the residual (sum of its autocorrelation to the first zero)."""
+
+
+def _norm_xcorr(a: np.ndarray, b: np.ndarray, max_lag: int) -> np.ndarray:
+    """``rho[k] = sum a[t] b[t+k] / (n sa sb)`` for ``k = -max_lag .. max_lag`` (b lags a)."""
+    a = a - a.mean()
+    b = b - b.mean()
+    n = a.size
+    full = scipy.signal.correlate(b, a, mode="full", method="fft")  # index n-1 is lag 0
+    mid = n - 1
+    seg = full[mid - max_lag : mid + max_lag + 1]
+    return seg / (n * a.std() * b.std() + 1e-300)
+
+
+def residual_tests(
+    inputs: Sequence[np.ndarray], residuals: Sequence[np.ndarray], dt: float, *, max_lag_s: float = 0.5, alpha: float = 0.01
+) -> ResidualTests:
+    """Whiteness (Ljung-Box at level ``alpha``), input-residual cross-correlation and residual
+    spectrum, pooled over records (each record's correlations weighted by its length)."""
+    max_lag = max(2, int(round(max_lag_s / dt)))
+    n_tot = sum(r.size for r in residuals)
+    acf = np.zeros(2 * max_lag + 1)
+    xc = np.zeros(2 * max_lag + 1)
+    for u, r in zip(inputs, residuals):
+        m = min(max_lag, r.size // 4)
+        a = _norm_xcorr(r, r, m)
+        x = _norm_xcorr(u, r, m)
+        pad = max_lag - m
+        acf += r.size * np.pad(a, pad)
+        xc += r.size * np.pad(x, pad)
+    acf /= n_tot
+    xc /= n_tot
+    lags = np.arange(-max_lag, max_lag + 1)
+    rho = acf[max_lag + 1 :]
+    k = np.arange(1, max_lag + 1)
+    q = n_tot * (n_tot + 2) * np.sum(rho**2 / (n_tot - k))
+    p = float(scipy.stats.chi2.sf(q, df=max_lag))
+    first_neg = np.flatnonzero(rho <= 0.0)
+    upto = first_neg[0] if first_neg.size else rho.size
+    tcorr = float(dt * (0.5 + np.sum(rho[:upto])))
+    ipk = int(np.argmax(np.abs(xc)))
+    bound = 2.58 / np.sqrt(max(1.0, n_tot * dt / max(tcorr, dt)))
+    r_all = np.concatenate(residuals)
+    nper = int(min(r_all.size, max(64, 2 ** int(np.log2(max(64, r_all.size // 8))))))
+    f, psd = scipy.signal.welch(r_all, fs=1.0 / dt, nperseg=nper)
+    return ResidualTests(
+        white=p > alpha, ljung_box_p=p, acf_lags_s=lags * dt, acf=acf, xcorr_lags_s=lags * dt, xcorr=xc,
+        input_residual_peak_lag_s=float(lags[ipk] * dt), input_residual_peak=float(xc[ipk]), xcorr_bound=float(bound),
+        psd_f_hz=f, psd=psd, psd_peak_hz=float(f[1:][np.argmax(psd[1:])]) if f.size > 1 else float("nan"),
+        correlation_time_s=tcorr,
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class AmplitudeDependence:
+    """Responses from low- and high-amplitude data compared within their random errors."""
+
+    dependent: bool
+    amplitude_ratio: float
+    fraction_significant: float
+    """Fraction of common passing points whose magnitude or phase differs by > ``nsigma``."""
+    high_minus_low_db: float
+    """Median gain change (dB) from the low- to the high-amplitude data."""
+    high_minus_low_deg: float
+    note: str
+
+
+def amplitude_dependence(
+    pairs: Sequence[tuple[np.ndarray, np.ndarray]],
+    sample_rate_hz: float,
+    w: np.ndarray,
+    *,
+    coherence_threshold: float = 0.6,
+    min_ratio: float = 1.3,
+    nsigma: float = 3.0,
+    min_fraction: float = 0.2,
+) -> AmplitudeDependence:
+    """Split every record into halves, group the pieces by input rms into a low- and a
+    high-amplitude set, estimate each set's response on ``w`` and compare them.
+
+    The two responses of a linear system agree within their random errors; dependence is
+    declared when more than ``min_fraction`` of the common passing points differ by more
+    than ``nsigma`` combined bounds.  Needs an amplitude ratio of at least ``min_ratio``
+    between the sets (for example two sweeps of different amplitude); otherwise the note
+    says so and ``dependent`` is False.
+    """
+    pieces = []
+    for u, y in pairs:
+        h = u.size // 2
+        for a, b in ((0, h), (h, u.size)):
+            if b - a > 16:
+                pieces.append((u[a:b], y[a:b], float(np.std(u[a:b]))))
+    if len(pieces) < 2:
+        return AmplitudeDependence(False, 1.0, 0.0, 0.0, 0.0, "too little data to compare amplitudes")
+    amps = np.array([p[2] for p in pieces])
+    order = np.argsort(amps)
+    half = len(pieces) // 2
+    low = [pieces[i][:2] for i in order[:half]]
+    high = [pieces[i][:2] for i in order[half:]]
+    ratio = float(np.mean(amps[order[half:]]) / max(np.mean(amps[order[:half]]), 1e-300))
+    if ratio < min_ratio:
+        return AmplitudeDependence(
+            False, ratio, 0.0, 0.0, 0.0,
+            f"input amplitudes differ by only x{ratio:.2f}; fly two sweeps of clearly different amplitude to test",
+        )  # fmt: skip
+    try:
+        rl = composite_frequency_response(low, sample_rate_hz, np.asarray(w), coherence_threshold=coherence_threshold)
+        rh = composite_frequency_response(high, sample_rate_hz, np.asarray(w), coherence_threshold=coherence_threshold)
+    except ValueError as err:
+        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, f"could not estimate both responses: {err}")
+    m = np.asarray(rl.mask) & np.asarray(rh.mask)
+    if m.sum() < 5:
+        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, "fewer than 5 frequencies pass in both amplitude sets")
+    Hl, Hh = np.asarray(rl.H)[m], np.asarray(rh.H)[m]
+    el, eh = np.asarray(rl.random_error)[m], np.asarray(rh.random_error)[m]
+    e = np.sqrt(el**2 + eh**2)
+    dmag = _DB_PER_NEPER * np.log(np.abs(Hh) / np.abs(Hl))
+    dph = np.rad2deg(np.angle(Hh / Hl))
+    z = np.maximum(np.abs(dmag) / (20.0 * np.log10(1.0 + e)), np.abs(np.deg2rad(dph)) / e)
+    frac = float(np.mean(z > nsigma))
+    dep = frac > min_fraction
+    note = (
+        f"response changes with amplitude (x{ratio:.2f}): median {np.median(dmag):+.2f} dB, "
+        f"{np.median(dph):+.1f} deg at high amplitude"
+        if dep else f"no amplitude dependence beyond noise between amplitudes differing x{ratio:.2f}"
+    )  # fmt: skip
+    return AmplitudeDependence(dep, ratio, frac, float(np.median(dmag)), float(np.median(dph)), note)
