@@ -149,7 +149,7 @@ class ResidualTests:
     input_residual_peak_lag_s: float
     input_residual_peak: float
     xcorr_bound: float
-    """Approximate 99 % bound of the cross-correlation for independent signals."""
+    """Approximate 99 % bound (simultaneous over the lags) of the cross-correlation of independent signals."""
     psd_f_hz: np.ndarray = field(repr=False)
     psd: np.ndarray = field(repr=False)
     psd_peak_hz: float
@@ -195,7 +195,8 @@ def residual_tests(
     upto = first_neg[0] if first_neg.size else rho.size
     tcorr = float(dt * (0.5 + np.sum(rho[:upto])))
     ipk = int(np.argmax(np.abs(xc)))
-    bound = 2.58 / np.sqrt(max(1.0, n_tot * dt / max(tcorr, dt)))
+    # 99 % simultaneous over all lags (Bonferroni), for the effective sample count
+    bound = scipy.stats.norm.isf(0.005 / lags.size) / np.sqrt(max(1.0, n_tot * dt / max(tcorr, dt)))
     r_all = np.concatenate(residuals)
     nper = int(min(r_all.size, max(64, 2 ** int(np.log2(max(64, r_all.size // 8))))))
     f, psd = scipy.signal.welch(r_all, fs=1.0 / dt, nperseg=nper)

@@ -333,7 +333,7 @@ def _post_filter(effects) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _rotor_den(tau, m, tau_f):
-    if tau_f > 0.0:
+    if tau_f > 1e-4:  # below 0.1 ms the cubic is ill-conditioned and the lag negligible
         return np.array([tau_f, 1.0 + tau_f / tau, 1.0 / tau, m])
     return np.array([1.0, 1.0 / tau, m])
 

@@ -1,0 +1,436 @@
+r"""Sim-to-real gap diagnosis: *where* the paper model departs from flight data, *which*
+unmodelled effect causes it, and *how far* the held-out gap shrinks once it is added.
+
+1. **Nominal**: the paper model (eqs. 15-16) identified on the TRAIN records by the main
+   pipeline (:func:`jaxgwo._identify.identify_channels`); the VAL records are held out.
+2. **Where** (:mod:`jaxgwo._diagnose_where`): frequency bands outside the random-error
+   bounds, residual whiteness and input-residual correlation on VAL, amplitude dependence
+   between low- and high-amplitude TRAIN data, coherence loss.
+3. **Which** (:mod:`jaxgwo._diagnose_which`): every effect of the vocabulary added,
+   refitted and scored on VAL; ``none`` when no candidate beats noise.
+4. **How far**: the top candidate, and the top two combined, before and after.
+
+:func:`diagnose` returns a :class:`Diagnosis`; :meth:`Diagnosis.to_json` is the stable
+report of issue 5, :meth:`Diagnosis.summary` the plain-language one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._data import CHANNELS, FlightRecord
+from ._diagnose_where import (
+    AmplitudeDependence,
+    FrequencyMismatch,
+    ResidualTests,
+    amplitude_dependence,
+    frequency_mismatch,
+    noise_limited_bands,
+    residual_tests,
+)
+from ._diagnose_which import (
+    FREQUENCY_DOMAIN,
+    NONLINEAR,
+    CandidateScore,
+    ModelSpec,
+    fit_cross_coupling,
+    fit_linear_candidates,
+    fit_nonlinear_candidates,
+    score_candidate,
+    simulate_model,
+)
+from ._effects import EFFECTS
+from ._identify import IdentifySettings, _prepare, channel_signals, identify_channels, independent_points
+
+__all__ = ["DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
+
+SEPARATING_EXCITATION = {
+    frozenset({"sensor_lag", "rotor_flapping"}): (
+        "sensor_lag and rotor_flapping both add high-frequency phase lag; a sweep extended past the "
+        "rotor/fuselage mode (to 15-20 Hz) at higher amplitude separates the gyro filter's magnitude "
+        "roll-off from the in-loop lag's change of the mode"
+    ),
+    frozenset({"time_delay", "sensor_lag"}): (
+        "a delay keeps the magnitude flat while a gyro filter rolls it off: extend the sweep above the "
+        "filter cutoff (15-20 Hz) with good coherence"
+    ),
+    frozenset({"time_delay", "rotor_flapping"}): (
+        "extend the sweep beyond the rotor/fuselage mode, where an in-loop lag changes the magnitude "
+        "and a delay does not"
+    ),
+    frozenset({"rate_limit", "saturation"}): (
+        "fly sweeps at two or three amplitudes: a rate limit bites at high frequency, a saturation at "
+        "large amplitude at any frequency"
+    ),
+    frozenset({"rate_limit", "backlash"}): (
+        "a small-amplitude sweep: backlash dominates small inputs, a rate limit large fast ones"
+    ),
+    frozenset({"backlash", "saturation"}): (
+        "sweeps at two clearly different amplitudes: backlash hurts small inputs, saturation large ones"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class DiagnoseSettings:
+    """What shapes a diagnosis.
+
+    ``identify``: settings of the nominal identification (and of the frequency response the
+    linear candidates are refitted on).  ``wolves`` / ``iterations``: the candidate refit's
+    IGWO.  ``z_min``, ``min_gap``: a candidate beats noise when the block z-score of its
+    held-out squared-error reduction exceeds ``z_min``, its BIC improves and it closes at
+    least ``min_gap`` of the R^2 gap (:func:`jaxgwo._diagnose_which.score_candidate`).
+    ``nsigma``: the random-error multiple that flags a frequency band.
+    """
+
+    identify: IdentifySettings = field(default_factory=lambda: IdentifySettings(method="wls-igwo+polish", w_max=120.0))
+    wolves: int = 20
+    iterations: int = 60
+    z_min: float = 2.0
+    min_gap: float = 0.03
+    nsigma: float = 3.0
+    candidates: tuple[str, ...] = tuple(EFFECTS)
+    nonlinear_grid: int = 12
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Everything a diagnosis found (see :meth:`to_json` for the stable report)."""
+
+    channel: str
+    nominal_params: dict
+    nominal_cost_J: float
+    nominal_r2: float
+    nominal_tic: float
+    mismatch: FrequencyMismatch = field(repr=False)
+    residuals: ResidualTests = field(repr=False)
+    off_axis_residuals: ResidualTests | None = field(repr=False)
+    amplitude: AmplitudeDependence = field(repr=False)
+    noise_limited_bands_hz: list = field(repr=False)
+    ranking: tuple[CandidateScore, ...] = field(repr=False)
+    verdict: str
+    combined: CandidateScore | None = field(repr=False)
+    skipped: dict = field(repr=False)
+    val_time: tuple = field(repr=False)
+    val_measured: tuple = field(repr=False)
+    val_nominal: tuple = field(repr=False)
+    response_w: np.ndarray = field(repr=False)
+    suggestion: str = ""
+
+    def to_json(self) -> dict:
+        """The stable JSON report of issue 5 (extra keys: ``skipped``, ``suggestion``, details)."""
+
+        def num(x):
+            x = float(x)
+            return x if math.isfinite(x) else None
+
+        def cand(c: CandidateScore) -> dict:
+            flat = {p: num(v) for e in c.effects for p, v in c.params[e].items()}
+            sig = {p: num(v) for e in c.effects for p, v in c.sigma.get(e, {}).items()}
+            return {
+                "effect": "+".join(c.effects), "params": flat, "params_sigma": sig,
+                "val_r2": num(c.val_r2), "val_tic": num(c.val_tic), "cost_J": num(c.cost_J),
+                "gap_closed": num(c.gap_closed), "score": num(c.score), "delta_bic": num(c.delta_bic),
+                "z_score": num(c.z_score), "beats_noise": c.beats_noise, "signature_agreement": num(c.agreement),
+            }  # fmt: skip
+
+        comb = None
+        if self.combined is not None:
+            comb = {"effects": list(self.combined.effects), "val_r2": num(self.combined.val_r2),
+                    "gap_closed": num(self.combined.gap_closed), "val_tic": num(self.combined.val_tic),
+                    "cost_J": num(self.combined.cost_J),
+                    "params": {p: num(v) for e in self.combined.effects for p, v in self.combined.params[e].items()}}  # fmt: skip
+        return {
+            "channel": self.channel,
+            "nominal": {"params": {k: num(v) for k, v in self.nominal_params.items()}, "cost_J": num(self.nominal_cost_J),
+                        "val_r2": num(self.nominal_r2), "val_tic": num(self.nominal_tic)},  # fmt: skip
+            "where": {
+                "bands_hz": self.mismatch.bands_hz,
+                "worst_hz": num(self.mismatch.worst_hz),
+                "residual_white": bool(self.residuals.white),
+                "input_residual_peak_lag_s": num(self.residuals.input_residual_peak_lag_s),
+                "amplitude_dependent": bool(self.amplitude.dependent),
+                "noise_limited_bands_hz": self.noise_limited_bands_hz,
+                "equivalent_delay_s": num(self.mismatch.equivalent_delay_s),
+                "amplitude_note": self.amplitude.note,
+            },
+            "ranking": [cand(c) for c in self.ranking],
+            "verdict": self.verdict,
+            "combined_top2": comb,
+            "skipped": dict(self.skipped),
+            "suggestion": self.suggestion,
+        }
+
+    def summary(self) -> str:
+        """A short plain-language summary for the terminal."""
+        lines = []
+        bands = self.mismatch.bands_hz
+        if bands:
+            lo, hi = min(b[0] for b in bands), max(b[1] for b in bands)
+            d = self.mismatch.equivalent_delay_s
+            trend = "phase lag growing with frequency" if d > 2 * self.mismatch.equivalent_delay_sigma_s else "no systematic phase trend"
+            lines.append(f"Gap lies mainly between {lo:.2g} and {hi:.2g} Hz ({trend}); worst at {self.mismatch.worst_hz:.2g} Hz.")
+        else:
+            lines.append("The nominal model stays within the response's random-error bounds at every frequency.")
+        if self.amplitude.dependent:
+            lines.append(f"The response depends on amplitude ({self.amplitude.note}).")
+        if self.verdict == "none":
+            lines.append(
+                f"No candidate effect beats noise: the held-out R^2 {self.nominal_r2:.3f} is what the paper model "
+                "can do on this data (the rest is disturbance or noise)."
+            )
+        else:
+            top = self.ranking[0]
+            parts = []
+            for e in top.effects:
+                for p, v in top.params[e].items():
+                    s = top.sigma.get(e, {}).get(p, float("nan"))
+                    if p == "delay_s":
+                        parts.append(f"{e} = {1e3 * v:.0f} ms (+-{1e3 * s:.0f})")
+                    else:
+                        parts.append(f"{e} {p} = {v:.3g} (+-{s:.2g})")
+            lines.append(f"Most likely cause: {', '.join(parts)}.")
+            lines.append(
+                f"Adding it closes {100 * top.gap_closed:.0f} % of the held-out R^2 gap "
+                f"({self.nominal_r2:.3f} -> {top.val_r2:.3f})."
+            )
+            if self.combined is not None:
+                lines.append(
+                    f"With {' + '.join(self.combined.effects)}: R^2 {self.combined.val_r2:.3f} "
+                    f"({100 * self.combined.gap_closed:.0f} % of the gap)."
+                )
+        if self.suggestion:
+            lines.append(self.suggestion)
+        for name, why in self.skipped.items():
+            lines.append(f"Skipped {name}: {why}")
+        return "\n".join(lines)
+
+
+def _agreement(name: str, fm: FrequencyMismatch, amp: AmplitudeDependence, off: ResidualTests | None) -> float:
+    """How well an effect's expected signature matches the step-2 detectors, in [-1, 1]."""
+    lag = fm.equivalent_delay_s > 2.0 * fm.equivalent_delay_sigma_s and fm.equivalent_delay_s > 0.002
+    contrast = "differ by only" not in amp.note and "too little" not in amp.note
+    if name in NONLINEAR:
+        if not contrast:
+            return 0.0
+        return 1.0 if amp.dependent else -1.0
+    if name == "cross_coupling":
+        if off is None:
+            return 0.0
+        return 1.0 if abs(off.input_residual_peak) > off.xcorr_bound else -0.5
+    if name == "structural_mode":
+        return 1.0 if fm.resonance_hz is not None else 0.0
+    if name == "time_delay":
+        return 1.0 if lag and abs(fm.magnitude_slope_db_per_decade) < 1.0 else (0.5 if lag else 0.0)
+    # sensor_lag, rotor_flapping: phase lag with a magnitude trend
+    return 1.0 if lag and abs(fm.magnitude_slope_db_per_decade) >= 1.0 else (0.5 if lag else 0.0)
+
+
+def _time_pairs(records: Sequence[FlightRecord], channel: str, settings: IdentifySettings):
+    """``(t, u, u_off, y)`` per record, preprocessed as the pipeline does (the off-axis input
+    is linearly detrended; zeros when the record has no off-axis cyclic)."""
+    import scipy.signal
+
+    from ._identify import _preprocessed
+
+    pairs, _ = _preprocessed(records, channel, settings)
+    other = "longitudinal" if channel == "lateral" else "lateral"
+    off_name = CHANNELS[other][0]
+    out = []
+    for rec, (u, y) in zip(records, pairs):
+        t = np.asarray(rec.time, float) - float(rec.time[0])
+        if off_name in rec.columns:
+            uo = scipy.signal.detrend(np.asarray(rec[off_name], float), type="linear")
+        else:
+            uo = None
+        out.append((t, u, uo, y))
+    return out
+
+
+def diagnose(
+    train: Sequence[FlightRecord],
+    validation: Sequence[FlightRecord],
+    channel: str,
+    settings: DiagnoseSettings = DiagnoseSettings(),
+) -> Diagnosis:
+    """Diagnose the gap between the paper model and the records of ``channel``.
+
+    ``train`` identifies (nominal and candidates); ``validation`` is held out and only
+    scored.  Raises ``ValueError`` for missing validation records or columns.
+    """
+    if not validation:
+        raise ValueError("diagnose needs held-out validation records (--validate VAL): the ranking is scored on them.")
+    if not train:
+        raise ValueError("diagnose needs at least one identification record.")
+    ids = settings.identify
+    key = jax.random.key(settings.seed)
+    nominal = identify_channels({channel: list(train)}, ids, validation=list(validation))[channel]
+    prep = _prepare(list(train), channel, ids)
+    model = nominal.model
+    p_true = np.asarray(model.to_array(), float)
+    p_norm = p_true * np.array([prep.sign, 1, 1, 1, 1])
+    x_nom = np.log(p_norm)
+    resp = nominal.response
+    dt = 1.0 / float(train[0].sample_rate)
+
+    # -- where
+    fm = frequency_mismatch(resp, np.asarray(model.frequency_response(resp.w)), nsigma=settings.nsigma)
+    tv = _time_pairs(validation, channel, ids)
+    tt = _time_pairs(train, channel, ids)
+    nom_spec = ModelSpec(p_true)
+    val_nom = [simulate_model(nom_spec, t, u) for t, u, _o, _y in tv]
+    val_meas = [y for *_r, y in tv]
+    resid = [y - p for y, p in zip(val_meas, val_nom)]
+    rt = residual_tests([u for _t, u, _o, _y in tv], resid, dt)
+    have_off = all(o is not None and np.ptp(o) > 0 for _t, _u, o, _y in tv + tt)
+    off_rt = residual_tests([o for _t, _u, o, _y in tv], resid, dt) if have_off else None
+    amp = amplitude_dependence([(u, y) for _t, u, _o, y in tt], 1.0 / dt,
+                               np.asarray(resp.w), coherence_threshold=ids.coherence_threshold)  # fmt: skip
+    nlb = noise_limited_bands(resp)
+    r2_nom = float(nominal.validation.r2)
+
+    # -- which
+    skipped: dict[str, str] = {}
+    cands = [c for c in settings.candidates if c in EFFECTS]
+    if "cross_coupling" in cands and not have_off:
+        cands.remove("cross_coupling")
+        skipped["cross_coupling"] = (
+            f"the records have no varying off-axis input {CHANNELS['longitudinal' if channel == 'lateral' else 'lateral'][0]!r}; "
+            "cross-coupling needs it"
+        )
+    m = float(np.sum(np.asarray(resp.mask)))
+    dep = math.sqrt(m / max(independent_points(resp), 1.0))
+    k_lin, k_comb = jax.random.split(key)
+    lin_names = [(c,) for c in cands if c in FREQUENCY_DOMAIN]
+    lin = fit_linear_candidates(prep.objective, x_nom, lin_names, k_lin, wolves=settings.wolves,
+                                iterations=settings.iterations, dependence_factor=dep)  # fmt: skip
+    sign_vec = np.array([prep.sign, 1, 1, 1, 1])
+    tc = rt.correlation_time_s
+    scored: list[CandidateScore] = []
+
+    def score(effects, params, sigma, spec, cost, n_params):
+        pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv]
+        ag = float(np.mean([_agreement(e, fm, amp, off_rt) for e in effects]))
+        return score_candidate(tuple(effects), params, sigma, pred, val_meas, val_nom, r2_nom, cost, n_params, tc, dt, ag,
+                               z_min=settings.z_min, min_gap=settings.min_gap)  # fmt: skip
+
+    specs = {}
+    for f in lin:
+        spec = ModelSpec(np.exp(f.x[:5]) * sign_vec, f.params)
+        specs[f.effects] = spec
+        k = sum(len(EFFECTS[e].params) for e in f.effects)
+        scored.append(score(f.effects, f.params, f.sigma, spec, f.cost_J, k))
+    if "cross_coupling" in cands:
+        cc = fit_cross_coupling(nom_spec, tt, tc)
+        spec = ModelSpec(p_true, cc.params)
+        specs[("cross_coupling",)] = spec
+        scored.append(score(("cross_coupling",), cc.params, cc.sigma, spec, nominal.cost_J, 1))
+    nl = fit_nonlinear_candidates(nom_spec, tt, [c for c in cands if c in NONLINEAR], grid=settings.nonlinear_grid)
+    for f in nl:
+        spec = ModelSpec(p_true, f.params, f.gain_scale)
+        specs[f.effects] = spec
+        scored.append(score(f.effects, f.params, f.sigma, spec, nominal.cost_J, 2))  # parameter and output gain
+    ranking = tuple(sorted(scored, key=lambda c: -c.score))
+    verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
+
+    # -- how far: the top two combined
+    combined = None
+    if len(ranking) >= 2:
+        a, b = ranking[0].effects[0], ranking[1].effects[0]
+        pair = (a, b)
+        if a in FREQUENCY_DOMAIN and b in FREQUENCY_DOMAIN:
+            (f,) = fit_linear_candidates(prep.objective, x_nom, [pair], k_comb, wolves=settings.wolves,
+                                         iterations=settings.iterations, dependence_factor=dep)  # fmt: skip
+            spec = ModelSpec(np.exp(f.x[:5]) * sign_vec, f.params)
+            combined = score(pair, f.params, f.sigma, spec, f.cost_J, sum(len(EFFECTS[e].params) for e in pair))
+        else:
+            # no joint refit across domains: compose the individually fitted parts on the
+            # better candidate's paper parameters, then refit a cross-coupling gain if present
+            sa, sb = specs[(a,)], specs[(b,)]
+            eff = dict(sa.effects) | dict(sb.effects)
+            spec = ModelSpec(sa.params, eff, sa.gain_scale * sb.gain_scale)
+            if "cross_coupling" in eff:
+                cc = fit_cross_coupling(spec, tt, tc)
+                eff["cross_coupling"] = cc.params["cross_coupling"]
+                spec = ModelSpec(sa.params, eff, spec.gain_scale)
+            params = {e: dict(eff[e]) for e in pair}
+            sigma = {e: ranking[i].sigma.get(e, {}) for i, e in enumerate(pair)}
+            cost = min(ranking[0].cost_J, ranking[1].cost_J)
+            combined = score(pair, params, sigma, spec, cost, sum(len(EFFECTS[e].params) for e in pair))
+
+    suggestion = ""
+    if len(ranking) >= 2 and ranking[0].beats_noise and ranking[1].beats_noise:
+        a, b = ranking[0], ranking[1]
+        if a.gap_closed - b.gap_closed < 0.1 * max(a.gap_closed, 1e-9):
+            tip = SEPARATING_EXCITATION.get(frozenset({a.effects[0], b.effects[0]}))
+            suggestion = (
+                f"{a.effects[0]} and {b.effects[0]} explain the data almost equally well"
+                + (f"; to separate them: {tip}." if tip else "; fly a wider-band, two-amplitude sweep to separate them.")
+            )
+    return Diagnosis(
+        channel=channel,
+        nominal_params={k: float(v) for k, v in zip(("K", "tau", "M", "omega_s", "zeta_s"), p_true)},
+        nominal_cost_J=float(nominal.cost_J), nominal_r2=r2_nom, nominal_tic=float(nominal.validation.tic),
+        mismatch=fm, residuals=rt, off_axis_residuals=off_rt, amplitude=amp, noise_limited_bands_hz=nlb,
+        ranking=ranking, verdict=verdict, combined=combined, skipped=skipped,
+        val_time=tuple(t for t, *_r in tv), val_measured=tuple(val_meas), val_nominal=tuple(val_nom),
+        response_w=np.asarray(resp.w), suggestion=suggestion,
+    )  # fmt: skip
+
+
+def plot_diagnosis(d: Diagnosis, path: str) -> None:
+    """Bode mismatch with its bounds and the flagged bands shaded; residual auto- and
+    input cross-correlation; before/after overlays on VAL; the candidates' held-out gains."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ._atomic import atomic_savefig
+
+    fm = d.mismatch
+    fig, ax = plt.subplots(3, 2, figsize=(12.0, 11.0))
+    for a, err, bound, lab in ((ax[0, 0], fm.magnitude_error_db, fm.magnitude_bound_db, "magnitude error (dB)"),
+                               (ax[0, 1], fm.phase_error_deg, fm.phase_bound_deg, "phase error (deg)")):  # fmt: skip
+        a.semilogx(fm.f_hz, err, "k.-", ms=3, label="model - measured")
+        a.fill_between(fm.f_hz, -fm.nsigma * bound, fm.nsigma * bound, color="0.85", label=f"+-{fm.nsigma:g} sigma random error")
+        for lo, hi in fm.bands_hz:
+            a.axvspan(lo, hi, color="tab:red", alpha=0.2)
+        a.set_xlabel("frequency (Hz)")
+        a.set_ylabel(lab)
+        a.legend(fontsize=8)
+    r = d.residuals
+    ax[1, 0].plot(r.acf_lags_s, r.acf, label="residual autocorrelation")
+    ax[1, 0].plot(r.xcorr_lags_s, r.xcorr, label="input-residual cross-correlation")
+    ax[1, 0].axhline(r.xcorr_bound, color="0.5", ls=":")
+    ax[1, 0].axhline(-r.xcorr_bound, color="0.5", ls=":")
+    ax[1, 0].set_xlabel("lag (s)")
+    ax[1, 0].legend(fontsize=8)
+    ax[1, 1].semilogy(r.psd_f_hz, r.psd)
+    ax[1, 1].set_xlabel("frequency (Hz)")
+    ax[1, 1].set_ylabel("residual PSD")
+    t = d.val_time[0]
+    ax[2, 0].plot(t, d.val_measured[0], "k", lw=0.8, label="measured (VAL)")
+    ax[2, 0].plot(t, d.val_nominal[0], "tab:blue", lw=0.8, label=f"nominal R^2 {d.nominal_r2:.3f}")
+    if d.ranking:
+        top = d.ranking[0]
+        ax[2, 0].plot(t, top.predicted[0], "tab:red", lw=0.8, label=f"+{'+'.join(top.effects)} R^2 {top.val_r2:.3f}")
+    ax[2, 0].set_xlabel("time (s)")
+    ax[2, 0].legend(fontsize=8)
+    names = ["+".join(c.effects) for c in d.ranking]
+    gains = [c.gap_closed for c in d.ranking]
+    colors = ["tab:green" if c.beats_noise else "0.6" for c in d.ranking]
+    ax[2, 1].barh(names[::-1], gains[::-1], color=colors[::-1])
+    ax[2, 1].set_xlabel("fraction of held-out R^2 gap closed")
+    ax[2, 1].set_title(f"verdict: {d.verdict}", fontsize=10)
+    fig.suptitle(f"jaxgwo diagnose, {d.channel} channel")
+    fig.tight_layout()
+    atomic_savefig(fig, path)
+    plt.close(fig)
