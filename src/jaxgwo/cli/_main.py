@@ -9,8 +9,10 @@ import sys
 # (module, name) pairs; each module defines add_parser(subparsers) and run(args).
 _SUBCOMMANDS = (
     "jaxgwo.cli._identify",
-    "jaxgwo.cli._compare",
+    "jaxgwo.cli._diagnose",
     "jaxgwo.cli._simulate",
+    "jaxgwo.cli._compare",
+    "jaxgwo.cli._montecarlo",
 )
 
 
