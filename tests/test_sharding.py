@@ -28,16 +28,17 @@ import jaxgwo
 from jaxgwo._sharding import run_seeds_sharded
 from jaxgwo._testfunctions import helicopter_problem
 
-p = helicopter_problem(n_freq=20)
+p = helicopter_problem(n_freq=8)
 cfg = jaxgwo.igwo(6, 10)
 """
 
 _COMPARE = """
+KEYS = jax.random.split(jax.random.key(7), 5)
+REF = jaxgwo.run_seeds(cfg, p.objective, p.lower(), p.upper(), KEYS)
+
 def compare(sharded, n):
-    keys = jax.random.split(jax.random.key(7), n)
-    ref = jaxgwo.run_seeds(cfg, p.objective, p.lower(), p.upper(), keys)
     for name in ("best_position", "best_fitness", "history_best", "evaluations"):
-        got, want = np.asarray(getattr(sharded, name)), np.asarray(getattr(ref, name))
+        got, want = np.asarray(getattr(sharded, name)), np.asarray(getattr(REF, name))[:n]
         assert got.shape == want.shape, (name, got.shape, want.shape)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-14, err_msg=name)
 """
@@ -50,7 +51,7 @@ def _env(**extra):
     return env
 
 
-def _python(code, env, timeout=120):
+def _python(code, env):
     return subprocess.Popen([sys.executable, "-c", textwrap.dedent(code)], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
@@ -66,25 +67,15 @@ def _check(proc, timeout=120):
     return out
 
 
-def test_two_host_devices_equal_unsharded():
-    code = _PRELUDE + _COMPARE + """
+_TWO_DEVICES = _PRELUDE + _COMPARE + """
 assert jax.device_count() == 2, jax.devices()
-for n in (5, 4, 1):  # odd (padded), even, fewer seeds than devices
-    keys = jax.random.split(jax.random.key(7), n)
-    out = run_seeds_sharded(cfg, p.objective, p.lower(), p.upper(), keys)
-    if n == 4:  # the seed axis really is split over both devices
-        assert len(out.best_fitness.sharding.device_set) == 2 or n < 2
+for n in (5, 1):  # padded to 6; fewer seeds than devices
+    out = run_seeds_sharded(cfg, p.objective, p.lower(), p.upper(), KEYS[:n])
+    if n == 5:  # the seed axis really was split over both devices
+        assert len(out.best_fitness.sharding.device_set) == 2, out.best_fitness.sharding
     compare(out, n)
-raw = jax.random.split(jax.random.PRNGKey(7), 5)  # raw uint32 keys too
-out = run_seeds_sharded(cfg, p.objective, p.lower(), p.upper(), raw, keep_history=False)
-ref = jaxgwo.run_seeds(cfg, p.objective, p.lower(), p.upper(), raw, keep_history=False)
-assert out.history_best is None
-np.testing.assert_allclose(np.asarray(out.best_position), np.asarray(ref.best_position),
-                           rtol=1e-12, atol=1e-14)
 print("OK")
 """
-    env = _env(XLA_FLAGS="--xla_force_host_platform_device_count=2")
-    assert "OK" in _check(_python(code, env))
 
 
 def _free_port():
@@ -93,9 +84,7 @@ def _free_port():
         return s.getsockname()[1]
 
 
-def test_two_processes_on_localhost_equal_unsharded():
-    port = _free_port()
-    code = """
+_TWO_PROCESSES = """
 import jax
 jax.config.update("jax_cpu_collectives_implementation", "gloo")
 jax.distributed.initialize(coordinator_address="127.0.0.1:{port}", num_processes=2,
@@ -103,26 +92,48 @@ jax.distributed.initialize(coordinator_address="127.0.0.1:{port}", num_processes
 """ + _PRELUDE + _COMPARE + """
 assert jax.process_count() == 2 and jax.device_count() == 2, jax.devices()
 assert jax.local_device_count() == 1
-n = 5
-keys = jax.random.split(jax.random.key(7), n)
-out = run_seeds_sharded(cfg, p.objective, p.lower(), p.upper(), keys)
+out = run_seeds_sharded(cfg, p.objective, p.lower(), p.upper(), KEYS)
 assert isinstance(out.best_fitness, np.ndarray)  # gathered to every process
-with jax.default_device(jax.local_devices()[0]):
-    compare(out, n)
+compare(out, 5)
 print("OK", jax.process_index())
 """
-    procs = [_python(code.format(port=port, pid=i), _env()) for i in range(2)]
-    outs = [_check(proc) for proc in procs]
+
+
+@pytest.fixture(scope="module")
+def launched():
+    """Start every subprocess at once (they overlap on a 2-core machine)."""
+    port = _free_port()
+    procs = {
+        "devices": _python(_TWO_DEVICES,
+                           _env(XLA_FLAGS="--xla_force_host_platform_device_count=2")),
+        "processes": [_python(_TWO_PROCESSES.replace("{port}", str(port))
+                              .replace("{pid}", str(i)), _env()) for i in range(2)],
+    }
+    yield procs
+    for proc in [procs["devices"], *procs["processes"]]:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+
+
+def test_two_host_devices_equal_unsharded(launched):
+    assert "OK" in _check(launched["devices"])
+
+
+def test_two_processes_on_localhost_equal_unsharded(launched):
+    outs = [_check(proc) for proc in launched["processes"]]
     assert "OK 0" in outs[0] and "OK 1" in outs[1]
 
 
 def test_single_device_mesh_in_process():
-    """In the test session (one CPU device) it runs and equals run_seeds."""
-    p = helicopter_problem(n_freq=20)
+    """In the test session (one CPU device), with raw uint32 keys and no history."""
+    p = helicopter_problem(n_freq=8)
     cfg = jaxgwo.igwo(6, 10)
-    keys = jax.random.split(jax.random.key(1), 3)
-    got = run_seeds_sharded(cfg, p.objective, p.lower(), p.upper(), keys, mesh=seed_mesh())
-    ref = jaxgwo.run_seeds(cfg, p.objective, p.lower(), p.upper(), keys)
+    keys = jax.random.split(jax.random.PRNGKey(1), 3)
+    got = run_seeds_sharded(cfg, p.objective, p.lower(), p.upper(), keys, mesh=seed_mesh(),
+                            keep_history=False)
+    ref = jaxgwo.run_seeds(cfg, p.objective, p.lower(), p.upper(), keys, keep_history=False)
+    assert got.history_best is None
     np.testing.assert_allclose(np.asarray(got.best_position), np.asarray(ref.best_position),
                                rtol=1e-12, atol=1e-14)
     with pytest.raises(ValueError, match="seeds"):

@@ -17,7 +17,7 @@ only each seed's final cost and parameters are kept.
 
 Examples:
   jaxgwo montecarlo --seeds 1000 --json mc.json --plot mc.png
-  jaxgwo montecarlo --seeds 10000 --chunk 500 --method igwo --wolves 50 --iterations 500
+  jaxgwo montecarlo --seeds 10000 --chunk 100 --method igwo --wolves 50 --iterations 500
 """
 
 PARAMETER_NAMES = ("K", "tau", "M", "omega_s", "zeta_s")
@@ -31,8 +31,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--seeds", type=int, default=1000, metavar="N", help="number of seeds (1000)")
-    p.add_argument("--chunk", type=int, default=500, metavar="N",
-                   help="seeds per compiled call (500); memory grows with it")
+    p.add_argument("--chunk", type=int, default=100, metavar="N",
+                   help="seeds per compiled call (100); memory and cache pressure grow with it")
     p.add_argument("--method", choices=("gwo", "igwo"), default="igwo", help="optimiser (igwo)")
     p.add_argument("--wolves", type=int, default=50, metavar="N", help="pack size (50)")
     p.add_argument("--iterations", type=int, default=500, metavar="N", help="iterations (500)")
