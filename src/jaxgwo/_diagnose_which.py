@@ -43,6 +43,7 @@ from jaxtyping import Array, Bool, Float
 from . import _gwo as G
 from ._cost import CiferObjective, wrap_degrees
 from ._effects import EFFECTS, rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
+from ._identify import _jacobian, _residuals  # the jitted residual/Jacobian pair
 from ._metrics import r_squared, theil_inequality
 from ._models import simulate_transfer_function
 
@@ -128,14 +129,6 @@ class AugmentedCifer(eqx.Module):
         return jnp.where(jnp.isfinite(j), j, jnp.inf)
 
 
-@eqx.filter_jit
-def _residuals(obj, x):
-    return obj.residuals(x)
-
-
-@eqx.filter_jit
-def _jacobian(obj, x):
-    return jax.jacfwd(obj.residuals)(x)
 
 
 @dataclass(frozen=True)
