@@ -121,7 +121,7 @@ def _parser():
 
 def test_cli_writes_json_and_plot(tmp_path, capsys):
     out, png = tmp_path / "mc.json", tmp_path / "mc.png"
-    args = _parser().parse_args(["montecarlo", "--seeds", "3", "--chunk", "2", "--wolves", "6",
+    args = _parser().parse_args(["montecarlo", "--devices", "1", "--seeds", "3", "--chunk", "2", "--wolves", "6",
                                  "--iterations", "5", "--json", str(out), "--plot", str(png)])
     assert args.func(args) == 0
     report = json.loads(out.read_text())
@@ -140,3 +140,18 @@ def test_cli_bad_input(argv, match):
     args = _parser().parse_args(["montecarlo", *argv])
     with pytest.raises(ValueError, match=match):
         args.func(args)
+
+
+def test_cpu_cores_become_host_devices_only_when_not_already_set(monkeypatch):
+    from jaxgwo.cli._montecarlo import _use_cpu_cores
+
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    _use_cpu_cores(1)
+    assert "XLA_FLAGS" not in __import__("os").environ
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_enable_fast_math=false")
+    _use_cpu_cores(2)
+    assert __import__("os").environ["XLA_FLAGS"] == (
+        "--xla_cpu_enable_fast_math=false --xla_force_host_platform_device_count=2")
+    monkeypatch.setenv("XLA_FLAGS", "--xla_force_host_platform_device_count=3")
+    _use_cpu_cores(2)
+    assert __import__("os").environ["XLA_FLAGS"] == "--xla_force_host_platform_device_count=3"

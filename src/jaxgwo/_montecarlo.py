@@ -205,6 +205,9 @@ def monte_carlo(
         parameter_names: names for the summary (default ``x0, x1, ...``).
         progress: called on the host as ``progress(seeds_done, n_seeds)`` after each chunk.
 
+    With more than one local device each chunk is sharded over all of them
+    (:func:`jaxgwo._sharding.run_seeds_sharded`).
+
     Raises:
         ValueError: for ``n_seeds < 1``, ``chunk < 1``, a non-positive tolerance, or a
             ``truth`` / ``parameter_names`` of the wrong length.
@@ -232,6 +235,12 @@ def monte_carlo(
     if pad:
         keys = jnp.concatenate([keys, jnp.repeat(keys[-1:], pad, axis=0)])
 
+    # Several local devices (GPUs, or CPU cores exposed as host devices): shard each
+    # chunk's seed axis over them; the results equal run_seeds' (tests/test_sharding.py).
+    if len(jax.local_devices()) > 1:
+        from ._sharding import run_seeds_sharded as runner
+    else:
+        runner = run_seeds
     best_fitness = np.empty(n_seeds)
     best_position = np.empty((n_seeds, dim))
     hist = _HistoryHistogram(config.iterations) if keep_histories else None
@@ -240,8 +249,8 @@ def monte_carlo(
     t_start = time.perf_counter()
     for c in range(n_chunks):
         t0 = time.perf_counter()
-        res = run_seeds(config, objective, lower, upper, keys[c * chunk:(c + 1) * chunk],
-                        keep_history=keep_histories)
+        res = runner(config, objective, lower, upper, keys[c * chunk:(c + 1) * chunk],
+                     keep_history=keep_histories)
         start, stop = c * chunk, min((c + 1) * chunk, n_seeds)
         keep = stop - start  # the padding of the last chunk is dropped here
         best_fitness[start:stop] = np.asarray(res.best_fitness)[:keep]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -33,6 +34,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=int, default=1000, metavar="N", help="number of seeds (1000)")
     p.add_argument("--chunk", type=int, default=100, metavar="N",
                    help="seeds per compiled call (100); memory and cache pressure grow with it")
+    p.add_argument("--devices", type=int, default=os.cpu_count() or 1, metavar="N",
+                   help="CPU cores to shard the seeds over, as JAX host devices "
+                        f"(default: all, {os.cpu_count() or 1} here)")
     p.add_argument("--method", choices=("gwo", "igwo"), default="igwo", help="optimiser (igwo)")
     p.add_argument("--wolves", type=int, default=50, metavar="N", help="pack size (50)")
     p.add_argument("--iterations", type=int, default=500, metavar="N", help="iterations (500)")
@@ -52,6 +56,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def _check(args) -> None:
     if args.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
+    if args.devices < 1:
+        raise ValueError(f"--devices must be >= 1, got {args.devices}")
     if args.chunk < 1:
         raise ValueError(f"--chunk must be >= 1, got {args.chunk}")
     if args.wolves < 4:
@@ -65,8 +71,18 @@ def _check(args) -> None:
             raise ValueError(f"{flag} directory does not exist: {Path(path).parent}")
 
 
+def _use_cpu_cores(devices: int) -> None:
+    """Expose ``devices`` CPU cores as JAX host devices, so the seed axis can be sharded
+    over them.  Works only before JAX starts its backend (the CLI has not, at this point);
+    an ``XLA_FLAGS`` that already sets a device count is left alone."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    if devices > 1 and "xla_force_host_platform_device_count" not in flags:
+        os.environ["XLA_FLAGS"] = f"{flags} --xla_force_host_platform_device_count={devices}".strip()
+
+
 def run(args) -> int:
     _check(args)
+    _use_cpu_cores(args.devices)
     import jax
 
     import jaxgwo
@@ -100,6 +116,7 @@ def run(args) -> int:
     report["iterations"] = args.iterations
     report["seed"] = args.seed
     report["jax_version"] = jax.__version__
+    report["devices"] = len(jax.local_devices())
     if args.json:
         atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
     if args.plot:
@@ -108,7 +125,8 @@ def run(args) -> int:
         cost = report["cost"]
         print(f"{summary.n_seeds} seeds ({args.method}, {args.wolves} wolves x "
               f"{args.iterations} iterations) in {summary.wall_time_s:.1f} s "
-              f"({1e3 * summary.wall_time_s / summary.n_seeds:.2f} ms/seed, chunk {summary.chunk})")
+              f"({1e3 * summary.wall_time_s / summary.n_seeds:.2f} ms/seed, chunk {summary.chunk}, "
+              f"{report['devices']} device(s))")
         print(f"success within {args.tolerance:g} rel.: {100 * summary.success_rate:.1f} %   "
               f"cost median {cost.get('q50', float('nan')):.3g}, "
               f"95 % {cost.get('q95', float('nan')):.3g}")
