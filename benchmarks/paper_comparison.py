@@ -7,9 +7,9 @@
 * Validation: ten multi-step flights per channel made by the simulator from the R-50 plant
   (not the paper plant, so model-structure error is present) with the default dataset's
   turbulence, gyro noise, pilot corrections and hold loop; the recipe of the embedded
-  validation record (``benchmarks/validation_sets.py``), each with its own key and its own
-  3-2-1-1 unit and doublet pulse length (listed in the output).  Each record carries both
-  channels' inputs, as the embedded one does; a channel's R^2 is over the whole record.
+  validation records (``jaxgwo.multistep_validation``: one record per channel, exciting
+  that channel's cyclic), each with its own key and its own 3-2-1-1 unit and doublet
+  pulse length (listed in the output).
 * Methods: ``traditional``, ``wls-gwo``, ``wls-igwo``, ``wls-igwo+polish``, ``paper`` (IGWO over
   the eq. (29) moment sums) (and ``wls``
   for context), 50 wolves x 500 iterations; R^2 per validation set with seed 0, means,
@@ -60,8 +60,12 @@ def validation_flights(n_sets: int, first_seed: int):
     for i in range(n_sets):
         seed = first_seed + i
         unit, pulse = UNITS_S[i % len(UNITS_S)], PULSES_S[i % len(PULSES_S)]
-        rec, clean = multistep_validation(jax.random.key(seed), unit_s=unit, pulse_s=pulse)
-        flights.append({"seed": seed, "unit_s": unit, "pulse_s": pulse, "record": rec, "clean": clean})
+        flown = {c: multistep_validation(jax.random.fold_in(jax.random.key(seed), i_c), c,
+                                         unit_s=unit, pulse_s=pulse)
+                 for i_c, c in enumerate(CHANNELS)}
+        flights.append({"seed": seed, "unit_s": unit, "pulse_s": pulse,
+                        "record": {c: flown[c][0] for c in CHANNELS},
+                        "clean": {c: flown[c][1] for c in CHANNELS}})
     return flights
 
 
@@ -83,8 +87,8 @@ def main() -> int:
     ds = default_dataset()
     recs = {c: [ds.identification[c]] for c in CHANNELS}
     flights = validation_flights(args.sets, args.first_key)
-    val = [f["record"] for f in flights]
-    val_clean = [f["clean"] for f in flights]
+    val = {c: [f["record"][c] for f in flights] for c in CHANNELS}
+    val_clean = {c: [f["clean"][c] for f in flights] for c in CHANNELS}
     settings = I.IdentifySettings()
 
     # seed 0, every method: R^2 per validation set
@@ -93,7 +97,7 @@ def main() -> int:
         out = I.identify_channels(recs, I.IdentifySettings(method=m, seed=0), validation=val)
         for c in CHANNELS:
             r2[m, c] = np.asarray(out[c].validation.per_record_r2)
-            r2_clean[m, c] = np.asarray(I.validate(out[c].model, val_clean, c, settings).per_record_r2)
+            r2_clean[m, c] = np.asarray(I.validate(out[c].model, val_clean[c], c, settings).per_record_r2)
             J[m, c] = out[c].cost_J
             evals[m] = out[c].evaluations
         print(m, {c: round(J[m, c], 3) for c in CHANNELS}, flush=True)
@@ -162,11 +166,12 @@ def main() -> int:
              "`IdentifySettings()` defaults, 50 wolves x 500 iterations "
              f"(fitness evaluations per run: wls-gwo {evals['wls-gwo']}, wls-igwo {evals['wls-igwo']}: "
              "IGWO does not re-evaluate its encircling group).\n")
-    L.append("**Validation flights** (`benchmarks/validation_sets.py`, R-50 hover plant with servos, "
+    L.append("**Validation flights** (`jaxgwo.multistep_validation`, one record per channel with key "
+             "`fold_in(key(set key), 0 lateral / 1 longitudinal)`; R-50 hover plant with servos, "
              "`HoldLoop.r50()`, default-dataset gusts 1.0/0.4 rad/s^2 rms with T = 1.5 s, 0.002 rad/s "
-             "gyro noise, pilot corrections 0.005 rms; 34 s at 100 Hz; lateral 3-2-1-1 at 2 s, "
-             "longitudinal 3-2-1-1 at 10 s, amplitude 0.08; lateral doublet at 18 s, longitudinal at 25 s, "
-             "amplitude 0.1):\n")
+             "gyro noise, pilot corrections 0.005 rms on both cyclics; 30 s at 100 Hz; on the channel's "
+             "cyclic a 3-2-1-1 (0.1) at 2 s, a doublet (0.12) at 12 s and a reversed 3-2-1-1 with "
+             "0.75 x the unit at 20 s):\n")
     L.append("| set | jax.random.key | 3-2-1-1 unit (s) | doublet pulse (s) |")
     L.append("|---|---|---|---|")
     for i, f in enumerate(flights, 1):

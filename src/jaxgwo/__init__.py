@@ -60,6 +60,7 @@ from ._simulate import Disturbance as Disturbance  # noqa: E402
 from ._simulate import HoldLoop as HoldLoop  # noqa: E402
 from ._simulate import closed_loop_stability as closed_loop_stability  # noqa: E402
 from ._simulate import default_dataset_records as default_dataset_records  # noqa: E402
+from ._simulate import multistep_validation as multistep_validation  # noqa: E402
 from ._preprocess import preprocess as preprocess  # noqa: E402
 from ._preprocess import PreprocessReport as PreprocessReport  # noqa: E402
 from ._preprocess import SignalReport as SignalReport  # noqa: E402
@@ -171,6 +172,7 @@ __all__ = [
     "cross_spectral_estimate",
     "default_dataset",
     "default_dataset_records",
+    "multistep_validation",
     "detrend",
     "doublet",
     "draw_paper_plant",

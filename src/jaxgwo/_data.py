@@ -430,7 +430,8 @@ def save_record(record: FlightRecord, path: str | os.PathLike, *, digits: int = 
 DEFAULT_DATASET_FILES: dict[str, str] = {
     "lateral": "default_id_lateral.csv",
     "longitudinal": "default_id_longitudinal.csv",
-    "validation": "default_validation.csv",
+    "validation_lateral": "default_validation_lateral.csv",
+    "validation_longitudinal": "default_validation_longitudinal.csv",
 }
 """Files of the embedded default dataset under ``jaxgwo/data`` (see :func:`default_dataset`)."""
 
@@ -442,11 +443,12 @@ class DefaultDataset(eqx.Module):
         identification: ``{"lateral": ..., "longitudinal": ...}``; each record holds two
             frequency sweeps on that channel's cyclic at different amplitudes (segments
             listed in its metadata), with pilot-like activity on the other cyclic.
-        validation: multi-step inputs (3-2-1-1 and doublets) on both cyclics.
+        validation: ``{"lateral": ..., "longitudinal": ...}``; held-out records with
+            multi-step inputs (3-2-1-1s and a doublet) on that channel's cyclic.
     """
 
     identification: dict[str, FlightRecord]
-    validation: FlightRecord
+    validation: dict[str, FlightRecord]
 
 
 def default_dataset() -> DefaultDataset:
@@ -466,5 +468,6 @@ def default_dataset() -> DefaultDataset:
             records[name] = load_record(path)
     return DefaultDataset(
         identification={"lateral": records["lateral"], "longitudinal": records["longitudinal"]},
-        validation=records["validation"],
+        validation={"lateral": records["validation_lateral"],
+                    "longitudinal": records["validation_longitudinal"]},
     )

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import equinox as eqx
@@ -451,12 +451,13 @@ def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings
 def identify_channels(
     records: dict[str, Sequence[FlightRecord]],
     settings: IdentifySettings = IdentifySettings(),
-    validation: Sequence[FlightRecord] | None = None,
+    validation: Sequence[FlightRecord] | Mapping[str, Sequence[FlightRecord]] | None = None,
 ) -> dict[str, ChannelIdentification]:
     """Identify the paper model for each channel in ``records`` (``{channel: [records]}``).
 
     All channels are searched in one batched optimiser call.  ``validation`` records are
-    held out: nothing is fitted to them.
+    held out: nothing is fitted to them.  Either one list scored for every channel, or
+    ``{channel: [records]}`` (a channel left out is not validated).
     """
     preps = [_prepare(list(recs), ch, settings) for ch, recs in records.items()]
     return _identify_prepared(preps, settings, validation)
@@ -533,6 +534,7 @@ def _identify_prepared(preps, settings, validation):
     runtime = (time.perf_counter() - t0) / len(preps)
     return {
         p.channel: _finish(p, xs[i], histories[i], evals[i], runtime, settings,
-                           validation)
+                           validation.get(p.channel) if isinstance(validation, Mapping)
+                           else validation)
         for i, p in enumerate(preps)
     }

@@ -50,6 +50,7 @@ __all__ = [
     "simulate",
     "closed_loop_stability",
     "default_substeps",
+    "multistep_validation",
 ]
 
 Plant = PaperPlant | R50Plant
@@ -420,27 +421,30 @@ DEFAULT_DATASET_CONDITIONS = {
     "sweep_duration_s": 90.0,
     "sweep_amplitudes": (0.08, 0.14),
     "off_axis_rms": 0.01,
+    "validation_amplitudes": (0.1, 0.12),  # 3-2-1-1, doublet: between the two sweep amplitudes
 }
 
 
 def default_dataset_records(key: PRNGKeyArray | None = None) -> dict[str, FlightRecord]:
     """Simulate the embedded default dataset from the R-50 hover model.
 
-    Returns ``{"lateral": ..., "longitudinal": ..., "validation": ...}``:
+    Returns ``{"lateral": ..., "longitudinal": ..., "validation_lateral": ...,
+    "validation_longitudinal": ...}``:
 
     * ``lateral`` / ``longitudinal`` (identification, 191 s each): 3 s of hover, a
       90 s Tischler sweep 0.25-12 Hz at amplitude 0.08 on that channel's cyclic, 5 s of
       hover, the same sweep at amplitude 0.14, 3 s of hover.  The other cyclic carries
       pilot-like corrections (0.01 rms, 0.4 Hz), and both carry the hold loop's.
-    * ``validation`` (34 s): a lateral 3-2-1-1 (0.08, 0.4 s unit) at 2 s, a longitudinal
-      3-2-1-1 at 10 s, a lateral doublet (0.1, 0.5 s) at 18 s, a longitudinal doublet at
-      25 s, with small corrections on both cyclics.
+    * ``validation_lateral`` / ``validation_longitudinal`` (30 s each, held out): on that
+      channel's cyclic a 3-2-1-1 (0.1, 0.4 s unit) at 2 s, a doublet (0.12, 0.5 s) at
+      12 s and a reversed, faster 3-2-1-1 (-0.1, 0.3 s unit) at 20 s; small corrections
+      (0.005 rms) on both cyclics.
 
     All at 100 Hz with Dryden-like gusts (1 rad/s^2 rms, T = 1.5 s), 0.005 rad/s gyro
     noise and the :meth:`HoldLoop.r50` hold.  ``key`` defaults to
     ``jax.random.key(DEFAULT_DATASET_SEED)``.
     """
-    from ._signals import doublet, frequency_sweep, multistep_3211, pilot_corrections
+    from ._signals import frequency_sweep, pilot_corrections
 
     key = jax.random.key(DEFAULT_DATASET_SEED) if key is None else key
     c = DEFAULT_DATASET_CONDITIONS
@@ -485,20 +489,69 @@ def default_dataset_records(key: PRNGKeyArray | None = None) -> dict[str, Flight
         meta["off_axis"] = f"pilot-like corrections {c['off_axis_rms']} rms on the other cyclic"
         out[name] = res.to_record(meta)
 
-    n = int(round(34.0 * fs))
-    t = jnp.arange(n, dtype=jnp.float64) / fs
-    lat = multistep_3211(t, amplitude=0.08, unit_s=0.4, start_s=2.0) + doublet(t, amplitude=0.1, pulse_s=0.5, start_s=18.0)
-    lon = multistep_3211(t, amplitude=0.08, unit_s=0.4, start_s=10.0) + doublet(t, amplitude=0.1, pulse_s=0.5, start_s=25.0)
-    k1, k2, k_sim = jax.random.split(k_val, 3)
-    lat = lat + pilot_corrections(k1, n, fs, rms=0.5 * c["off_axis_rms"])
-    lon = lon + pilot_corrections(k2, n, fs, rms=0.5 * c["off_axis_rms"])
-    res = simulate(plant, jnp.stack([lat, lon], axis=1), k_sim, sample_rate_hz=fs, disturbance=dist, hold=hold)
-    meta = dict(common)
-    meta["record"] = "validation, both channels, multi-step inputs"
-    meta["segment_1"] = "2-4.8 s: 3-2-1-1 on delta_lat, amplitude 0.08, unit 0.4 s"
-    meta["segment_2"] = "10-12.8 s: 3-2-1-1 on delta_lon, amplitude 0.08, unit 0.4 s"
-    meta["segment_3"] = "18-19 s: doublet on delta_lat, amplitude 0.1, pulse 0.5 s"
-    meta["segment_4"] = "25-26 s: doublet on delta_lon, amplitude 0.1, pulse 0.5 s"
-    meta["off_axis"] = f"pilot-like corrections {0.5 * c['off_axis_rms']} rms on both cyclics"
-    out["validation"] = res.to_record(meta)
+    for name, k in zip(("lateral", "longitudinal"), jax.random.split(k_val)):
+        out[f"validation_{name}"] = multistep_validation(k, name, disturbance=dist, meta=common)[0]
     return out
+
+
+def multistep_validation(
+    key: PRNGKeyArray,
+    channel: str,
+    *,
+    amplitudes: tuple[float, float] | None = None,
+    unit_s: float = 0.4,
+    pulse_s: float = 0.5,
+    disturbance: Disturbance | None = None,
+    meta: dict | None = None,
+) -> tuple[FlightRecord, FlightRecord]:
+    """One held-out multi-step flight of the R-50 on one channel, and its calm twin.
+
+    One record per channel, each exciting its own cyclic, as flight-test verification of
+    single-input models does: an input on the other axis would score the unmodelled
+    cross-coupling (the diagnosis' ``cross_coupling`` candidate), not the model.  30 s at
+    100 Hz: a 3-2-1-1 (``amplitudes[0]``, ``unit_s`` = 0.4 s unit) at 2 s, a doublet
+    (``amplitudes[1]``, ``pulse_s`` = 0.5 s pulses) at 12 s and a reversed, faster 3-2-1-1
+    (unit ``0.75 unit_s``) at 20 s, with
+    pilot-like corrections (0.005 rms) on both cyclics, the weak hold loop, and
+    ``disturbance`` (default: the default dataset's gusts and gyro noise).
+
+    Returns ``(record, calm)``: ``calm`` is the same flight (same input, same key) with
+    gusts and noise off, the part of the output that a rate model driven by the logged
+    input can predict at all.  With ``split(split(key(DEFAULT_DATASET_SEED), 3)[2])[i]``
+    (i = 0 lateral, 1 longitudinal) ``record`` is the embedded validation record.
+    """
+    from ._signals import doublet, multistep_3211, pilot_corrections
+
+    if channel not in ("lateral", "longitudinal"):
+        raise ValueError(f"channel must be 'lateral' or 'longitudinal', not {channel!r}")
+    c = DEFAULT_DATASET_CONDITIONS
+    fs = c["sample_rate_hz"]
+    va, da = c["validation_amplitudes"] if amplitudes is None else amplitudes
+    if disturbance is None:
+        disturbance = Disturbance(gust_rms=c["gust_rms_rad_s2"], gust_time_constant_s=c["gust_time_constant_s"],
+                                  noise_std=c["gyro_noise_std_rad_s"])  # fmt: skip
+    n = int(round(30.0 * fs))
+    t = jnp.arange(n, dtype=jnp.float64) / fs
+    on_axis = (
+        multistep_3211(t, amplitude=va, unit_s=unit_s, start_s=2.0)
+        + doublet(t, amplitude=da, pulse_s=pulse_s, start_s=12.0)
+        + multistep_3211(t, amplitude=-va, unit_s=0.75 * unit_s, start_s=20.0)
+    )
+    axis = 0 if channel == "lateral" else 1
+    k1, k2, k_sim = jax.random.split(key, 3)
+    own = on_axis + pilot_corrections(k1, n, fs, rms=0.5 * c["off_axis_rms"])
+    other = pilot_corrections(k2, n, fs, rms=0.5 * c["off_axis_rms"])
+    exc = jnp.stack([own, other] if axis == 0 else [other, own], axis=1)
+    plant, hold = R50Plant.default(), HoldLoop.r50()
+    cyclic = "delta_lat" if axis == 0 else "delta_lon"
+    info = dict(meta or {})
+    info["record"] = f"validation, {channel} channel ({cyclic} -> {'p' if axis == 0 else 'q'}), multi-step inputs"
+    info["segment_1"] = f"2-{2 + 7 * unit_s:g} s: 3-2-1-1 on {cyclic}, amplitude {va:g}, unit {unit_s:g} s"
+    info["segment_2"] = f"12-{12 + 2 * pulse_s:g} s: doublet on {cyclic}, amplitude {da:g}, pulse {pulse_s:g} s"
+    info["segment_3"] = (f"20-{20 + 5.25 * unit_s:g} s: 3-2-1-1 on {cyclic}, amplitude {-va:g}, "
+                         f"unit {0.75 * unit_s:g} s")
+    info["off_axis"] = f"pilot-like corrections {0.5 * c['off_axis_rms']} rms on both cyclics"
+    res = simulate(plant, exc, k_sim, sample_rate_hz=fs, disturbance=disturbance, hold=hold)
+    calm = simulate(plant, exc, k_sim, sample_rate_hz=fs, disturbance=Disturbance(), hold=hold)
+    calm_info = info | {"turbulence": "off", "noise": "off"}
+    return res.to_record(info), calm.to_record(calm_info)

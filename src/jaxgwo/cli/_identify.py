@@ -81,12 +81,14 @@ def run(args) -> int:
     else:
         data = default_dataset()
         by_channel = {ch: [data.identification[ch]] for ch in channels}
-        validation = _load(args.validate, channels) if args.validate else [data.validation]
+        # Each channel is scored on its own held-out record (its cyclic excited).
+        validation = (_load(args.validate, channels) if args.validate
+                      else {ch: [data.validation[ch]] for ch in channels})
         source = "embedded default dataset (simulated Yamaha R-50 hover)"
     if validation:
         for ch in channels:
             cols = CHANNELS[ch]
-            for rec in validation:
+            for rec in (validation[ch] if isinstance(validation, dict) else validation):
                 missing = [c for c in cols if c not in rec.columns]
                 if missing:
                     raise ValueError(
