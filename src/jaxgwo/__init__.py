@@ -121,6 +121,9 @@ from ._paper_mode import MomentObjective as MomentObjective  # noqa: E402
 from ._paper_mode import PaperModeResult as PaperModeResult  # noqa: E402
 from ._paper_mode import identify_paper_mode as identify_paper_mode  # noqa: E402
 from ._spectral import zoh_correction as zoh_correction  # noqa: E402
+from ._logs import load_any as load_any  # noqa: E402
+from ._logs import load_ardupilot as load_ardupilot  # noqa: E402
+from ._logs import load_px4 as load_px4  # noqa: E402
 __version__ = "0.1.0"
 
 __all__ = [
@@ -195,6 +198,9 @@ __all__ = [
     "levy_fit_response",
     "levy_moment_matrix",
     "levy_moments",
+    "load_any",
+    "load_ardupilot",
+    "load_px4",
     "load_record",
     "log_frequencies",
     "lowpass_zero_phase",
