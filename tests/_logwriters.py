@@ -34,6 +34,8 @@ _DF_STRUCT = {"Q": "Q", "q": "q", "B": "B", "b": "b", "f": "f", "d": "d", "I": "
 # ArduPilot's own definitions (ArduCopter/Log.cpp, AC_AttitudeControl/LogStructure.h).
 SIDS = ("SIDS", "QBfffffff", "TimeUS,Ax,Mag,FSt,FSp,TFin,TC,TR,TFout")
 SIDD = ("SIDD", "Qfffffffff", "TimeUS,Time,Targ,F,Gx,Gy,Gz,Ax,Ay,Az")
+UNIT = ("UNIT", "QbZ", "TimeUS,Id,Label")  # AP_Logger: unit id character -> unit
+FMTU = ("FMTU", "QBNN", "TimeUS,FmtType,UnitIds,MultIds")  # per-column unit ids of a type
 RATE = ("RATE", "Qfffffffffffff", "TimeUS,RDes,R,ROut,PDes,P,POut,YDes,Y,YOut,ADes,A,AOut,AOutSlew")
 
 
@@ -54,7 +56,11 @@ class DataFlashWriter:
                                fmt.encode(), columns.encode())
         self._buf += DATAFLASH_HEAD + bytes([0x80]) + fmt_body
 
-    def write(self, name: str, **fields: float) -> None:
+    def type_id(self, name: str) -> int:
+        return self._types[name][0]
+
+    def write(self, name: str, **fields: float | bytes) -> None:
+        """One message; string fields (``n``, ``N``, ``Z``) take bytes."""
         type_id, body, columns = self._types[name]
         values = [fields.get(c, 0) for c in columns]
         self._buf += DATAFLASH_HEAD + bytes([type_id]) + body.pack(*values)

@@ -21,10 +21,12 @@ from hypothesis import strategies as st  # noqa: E402
 from _logwriters import (  # noqa: E402
     ACTUATOR_CONTROLS,
     ANGULAR_VELOCITY,
+    FMTU,
     RATE,
     SIDD,
     SIDS,
     TORQUE_SETPOINT,
+    UNIT,
     DataFlashWriter,
     ULogWriter,
 )
@@ -333,6 +335,30 @@ def test_nan_and_backwards_time_are_errors(tmp_path):
     back.write_bytes(w.to_bytes())
     with pytest.raises(FlightDataError, match=r"RATE time does not increase at t = 0.002500 s"):
         load_ardupilot(back, window=(0.0, 1.0))
+
+
+@pytest.mark.parametrize("unit_id, label, scale", [("k", "deg/s", DEG), ("E", "rad/s", 1.0), ("d", "deg", None)])
+def test_units_the_log_declares(tmp_path, unit_id, label, scale):
+    """UNIT/FMTU messages give RATE.R its unit: deg/s is converted, rad/s kept, others refused."""
+    w = DataFlashWriter()
+    for d in (UNIT, FMTU, RATE):
+        w.define(*d)
+    for uid, text in (("s", "s"), ("-", ""), (unit_id, label)):
+        w.write("UNIT", Id=ord(uid), Label=text.encode())
+    w.write("FMTU", FmtType=w.type_id("RATE"), UnitIds=f"s{unit_id}{unit_id}-{unit_id}{unit_id}-".encode(),
+            MultIds=b"F000000")
+    t = np.arange(101) / 100.0
+    for ti in t:
+        w.write("RATE", TimeUS=int(round(ti * 1e6)), R=r_deg(ti), P=p_deg(ti), ROut=rout(ti), POut=pout(ti))
+    path = tmp_path / "units.bin"
+    path.write_bytes(w.to_bytes())
+    if scale is None:
+        with pytest.raises(FlightDataError, match=r"RATE.R is logged in 'deg'; an angular rate in deg/s or rad/s"):
+            load_ardupilot(path, window=(0.0, 1.0))
+        return
+    rec = load_ardupilot(path, window=(0.0, 1.0))
+    np.testing.assert_allclose(np.asarray(rec["p"]), f32(r_deg(t)).astype(float) * scale, rtol=1e-12)
+    assert ("deg/s converted" if scale != 1.0 else "rad/s as logged") in rec.metadata["output"]
 
 
 def test_empty_and_garbage_files(tmp_path):

@@ -268,6 +268,7 @@ class SystemIdRun(NamedTuple):
 class _DataFlash(NamedTuple):
     present: dict[str, tuple[str, ...]]  # message type -> its fields, for types with data
     columns: dict[str, dict[str, np.ndarray]]  # message type -> field -> values
+    units: dict[str, dict[str, str]]  # message type -> field -> unit the log declares, or ""
 
 
 def _import_dfreader():
@@ -322,6 +323,32 @@ def _decode_dataflash(data: bytes, offsets, fmt, fields: Sequence[str]) -> dict[
             values = values / (1.0 / mult) if 0.0 < mult < 1.0 else values * mult
         out[name] = values
     return out
+
+
+def _declared_unit(fmt, field: str) -> str:
+    """The unit the log's own ``UNIT``/``FMTU`` messages give ``field``, or ``""``."""
+    try:
+        return str(fmt.get_unit(field) or "")
+    except Exception:  # no FMTU for the type, or one shorter than its columns
+        return ""
+
+
+def _rate_scale(log: _DataFlash, message: str, field: str, where: str) -> tuple[float, str]:
+    """Factor to rad/s for an angular-rate field, and what was done, from its declared unit.
+
+    ArduPilot defines ``RATE.R/P`` and ``SIDD.Gx/Gy`` in deg/s (unit id ``k``); a log
+    that declares rad/s (``E``) is taken as it is, and any other unit is an error rather
+    than a silent mis-scaling.  Logs without ``FMTU`` messages are taken as deg/s.
+    """
+    unit = log.units.get(message, {}).get(field, "")
+    if unit in ("", "deg/s"):
+        return _DEG, "deg/s converted to rad/s"
+    if unit == "rad/s":
+        return 1.0, "rad/s as logged"
+    raise FlightDataError(
+        f"{where}: {message}.{field} is logged in {unit!r}; an angular rate in deg/s or "
+        f"rad/s is expected"
+    )
 
 
 def _collect_dataflash(reader, wanted: Mapping[str, Sequence[str]]) -> dict[str, dict[str, np.ndarray]]:
@@ -417,6 +444,8 @@ def _read_dataflash(
             slow = {name: wanted[name] for name in wanted if name not in columns}
             if slow:
                 columns.update(_collect_dataflash(reader, slow))
+            units = {name: {f: _declared_unit(reader.formats[reader.name_to_id[name]], f)
+                            for f in fields} for name, fields in wanted.items()}
     except (FlightDataError, ImportError):
         raise
     except Exception as err:  # pymavlink raises anything on a damaged file
@@ -427,7 +456,7 @@ def _read_dataflash(
         if reader is not None:
             with contextlib.suppress(Exception):
                 reader.close()
-    return _DataFlash(present, columns)
+    return _DataFlash(present, columns, units)
 
 
 def _sysid_runs(log: _DataFlash) -> list[SystemIdRun]:
@@ -610,11 +639,12 @@ def load_ardupilot(
         pairs = [CHANNELS[targ_channel]]
 
     out_columns = [out for _, out in pairs]
-    src = {"rate": ("RATE", {"p": "R", "q": "P"}), "sidd": ("SIDD", {"p": "Gx", "q": "Gy"})}[output]
+    src, names = {"rate": ("RATE", {"p": "R", "q": "P"}), "sidd": ("SIDD", {"p": "Gx", "q": "Gy"})}[output]
+    out_text = []
     for col in out_columns:
-        field(col, src[0], src[1][col], _DEG)
-    out_text = ", ".join(f"{src[0]}.{src[1][c]} -> {c}" for c in out_columns)
-    out_text += " (deg/s converted to rad/s)"
+        scale, done = _rate_scale(log, src, names[col], where)
+        field(col, src, names[col], scale)
+        out_text.append(f"{src}.{names[col]} -> {col} ({done})")
 
     grid, values, how = _resample(
         fields, start_s=start_s, stop_s=stop_s, sample_rate=sample_rate, max_gap=max_gap, where=where
@@ -623,7 +653,7 @@ def load_ardupilot(
         "source": f"ArduPilot DataFlash log {p.name}",
         "source_format": "ardupilot",
         "input": in_text,
-        "output": out_text,
+        "output": ", ".join(out_text),
         "segment": segment,
         "resampling": how,
         "time": "seconds since autopilot boot (TimeUS / 1e6)",
