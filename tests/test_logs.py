@@ -33,6 +33,8 @@ from _logwriters import (  # noqa: E402
 from jaxgwo import FlightDataError, FlightRecord, load_record, make_record, save_record  # noqa: E402
 from jaxgwo._logs import (  # noqa: E402
     FORMATS,
+    SystemIdRun,
+    ardupilot_runs,
     detect_format,
     load_any,
     load_ardupilot,
@@ -254,6 +256,16 @@ def test_sids_segments(logs):
     assert win.metadata["segment"].startswith("window 24-26 s")
     with pytest.raises(ValueError, match="not both"):
         load_ardupilot(logs["exact"], run=0, window=(1, 2))
+
+
+def test_ardupilot_runs_lists_what_run_indexes(logs, tmp_path):
+    runs = ardupilot_runs(logs["exact"])
+    assert [type(r) for r in runs] == [SystemIdRun, SystemIdRun]
+    assert [(r.index, r.axis, r.axis_name, r.channel) for r in runs] == [
+        (0, 10, "Mixer Roll", "lateral"), (1, 11, "Mixer Pitch", "longitudinal")]
+    assert runs[0].start_s == pytest.approx(3.0) and runs[0].stop_s == pytest.approx(9.5)
+    assert runs[1].start_s == pytest.approx(16.0) and runs[1].stop_s == pytest.approx(20.99 + 20e-6)
+    assert ardupilot_runs(write_dataflash(tmp_path / "none.bin", runs=())) == []
 
 
 def test_no_sids_needs_a_window(tmp_path):

@@ -124,6 +124,8 @@ from ._spectral import zoh_correction as zoh_correction  # noqa: E402
 from ._logs import load_any as load_any  # noqa: E402
 from ._logs import load_ardupilot as load_ardupilot  # noqa: E402
 from ._logs import load_px4 as load_px4  # noqa: E402
+from ._logs import ardupilot_runs as ardupilot_runs  # noqa: E402
+from ._logs import SystemIdRun as SystemIdRun  # noqa: E402
 __version__ = "0.1.0"
 
 __all__ = [
@@ -164,8 +166,10 @@ __all__ = [
     "SignalReport",
     "SimulationResult",
     "SpectralEstimate",
+    "SystemIdRun",
     "TimeDomainObjective",
     "Validation",
+    "ardupilot_runs",
     "canonicalize_paper_params",
     "cifer_cost",
     "closed_loop_stability",

@@ -480,6 +480,18 @@ def _sysid_runs(log: _DataFlash) -> list[SystemIdRun]:
     return runs
 
 
+def ardupilot_runs(path: str | os.PathLike) -> list[SystemIdRun]:
+    """The System ID runs in an ArduPilot DataFlash log, one per ``SIDS`` message, in log
+    order: what :func:`load_ardupilot`'s ``run=`` indexes.  Empty when there are none.
+
+    Raises:
+        FlightDataError: an empty or unreadable file, or ``SIDS`` without its fields.
+        ImportError: ``pymavlink`` is not installed (``pip install "jaxgwo[logs]"``).
+    """
+    log = _read_dataflash(Path(path), {}, {"SIDS": ["Ax", "TFin", "TC", "TR", "TFout"], "SIDD": []})
+    return _sysid_runs(log)
+
+
 def _pick_run(
     runs: list[SystemIdRun], run: int | None, channel: str | None, where: str
 ) -> SystemIdRun:
