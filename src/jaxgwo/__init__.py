@@ -121,6 +121,13 @@ from ._paper_mode import MomentObjective as MomentObjective  # noqa: E402
 from ._paper_mode import PaperModeResult as PaperModeResult  # noqa: E402
 from ._paper_mode import identify_paper_mode as identify_paper_mode  # noqa: E402
 from ._spectral import zoh_correction as zoh_correction  # noqa: E402
+from ._export import ModelFile as ModelFile  # noqa: E402
+from ._export import export_model as export_model  # noqa: E402
+from ._export import load_model as load_model  # noqa: E402
+from ._export import load_model_file as load_model_file  # noqa: E402
+from ._export import save_model as save_model  # noqa: E402
+from ._report import write_diagnosis_report as write_diagnosis_report  # noqa: E402
+from ._report import write_identification_report as write_identification_report  # noqa: E402
 from ._logs import load_any as load_any  # noqa: E402
 from ._logs import load_ardupilot as load_ardupilot  # noqa: E402
 from ._logs import load_px4 as load_px4  # noqa: E402
@@ -247,4 +254,11 @@ __all__ = [
     "wls_start",
     "wrap_degrees",
     "zoh_correction",
+    "ModelFile",
+    "export_model",
+    "load_model",
+    "load_model_file",
+    "save_model",
+    "write_diagnosis_report",
+    "write_identification_report",
 ]

@@ -3,34 +3,83 @@ effect causes it, and how far the held-out gap shrinks once it is added."""
 
 from __future__ import annotations
 
-import argparse
 import json
+
+from ._identify import check_output_paths, command_line
 
 
 def add_parser(sub) -> None:
+    from .._export import EXPORT_FORMATS
+    from ._main import HelpFormatter
+
     p = sub.add_parser(
         "diagnose",
         help="diagnose the sim-to-real gap: where the model departs, which effect, how far it shrinks",
         description=(
-            "Identify the paper model on TRAIN, localise its departure from the data (frequency bands, "
-            "residual tests on VAL, amplitude dependence, coherence loss), then add every candidate "
-            "effect (time_delay, sensor_lag, rotor_flapping, cross_coupling, structural_mode, rate_limit, "
-            "backlash, saturation), refit it and rank the candidates by what they explain on the held-out "
-            "VAL records. Answers 'none' when no candidate beats noise."
+            "Identify the paper model on TRAIN, localise its departure from the data (frequency\n"
+            "bands, residual tests on VAL, amplitude dependence, coherence loss), then add every\n"
+            "candidate effect (time_delay, sensor_lag, rotor_flapping, cross_coupling,\n"
+            "structural_mode, rate_limit, backlash, saturation), refit it and rank the candidates\n"
+            "by what they explain on the held-out VAL records. Answers 'none' when no candidate\n"
+            "beats noise. The ranking is not calibrated yet (see README)."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        epilog=(
+            "example:\n"
+            "  jaxgwo diagnose sweep.csv --validate check.csv --channel lateral \\\n"
+            "      --json d.json --plot d.png --report d.html --export nominal.json\n"
+            "\n"
+            "--export writes the nominal paper model as a jaxgwo model file (or .npz); the\n"
+            "verdict and the best candidate's effect parameters go into its metadata (an\n"
+            "effect such as a delay is not part of the rational transfer function)."
+        ),
+        formatter_class=HelpFormatter,
     )
     p.add_argument("files", nargs="+", metavar="TRAIN", help="identification records (.csv or .npz)")
     p.add_argument("--validate", nargs="+", metavar="VAL", default=None,
                    help="held-out validation records (required; nothing is fitted to them)")
-    p.add_argument("--channel", choices=("lateral", "longitudinal"), required=True)
-    p.add_argument("--seed", type=int, default=0, help="PRNG seed of the optimisers")
-    p.add_argument("--wolves", type=int, default=20, help="IGWO pack size for the nominal fit and the refits")
-    p.add_argument("--iterations", type=int, default=60, help="IGWO iterations for the nominal fit and the refits")
-    p.add_argument("--w-max", type=float, default=120.0, help="highest frequency analysed (rad/s)")
+    p.add_argument("--channel", choices=("lateral", "longitudinal"), required=True,
+                   help="lateral: p/delta_lat, longitudinal: q/delta_lon")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="PRNG seed of the optimisers")
+    p.add_argument("--wolves", type=int, default=20, metavar="N",
+                   help="IGWO pack size for the nominal fit and the refits")
+    p.add_argument("--iterations", type=int, default=60, metavar="N",
+                   help="IGWO iterations for the nominal fit and the refits")
+    p.add_argument("--w-max", type=float, default=120.0, metavar="RAD_S",
+                   help="highest frequency analysed (rad/s)")
     p.add_argument("--json", metavar="OUT.json", help="write the stable JSON report here")
     p.add_argument("--plot", metavar="OUT.png", help="Bode mismatch, residual correlations, overlays, gains")
+    p.add_argument("--report", metavar="OUT.html",
+                   help="self-contained HTML report: verdict, ranking table and the figure")
+    p.add_argument("--export", metavar="FILE",
+                   help="write the nominal model (.json model file or .npz), candidates in its metadata")
+    p.add_argument("--export-format", choices=EXPORT_FORMATS, default=None,
+                   help="format of --export (default: from its extension)")
     p.set_defaults(func=run)
+
+
+def export_diagnosis(d, path: str, fmt: str | None, source: str) -> str:
+    """The nominal model of ``d``; the verdict and the augmented models' effect parameters
+    (top candidate and the top-two combination) as metadata."""
+    import jax.numpy as jnp
+
+    from .._export import export_model
+    from .._models import PaperModel
+
+    doc = d.to_json()
+    names = PaperModel.names
+    model = PaperModel.from_array(jnp.asarray([float(d.nominal_params[n]) for n in names]))
+    top = doc["ranking"][0] if doc["ranking"] else None
+    meta = {
+        "role": "nominal model of jaxgwo diagnose",
+        "cost_J": doc["nominal"]["cost_J"], "validation_r2": doc["nominal"]["val_r2"],
+        "validation_tic": doc["nominal"]["val_tic"], "verdict": doc["verdict"],
+        "top_candidate": None if top is None else {
+            k: top[k] for k in ("effect", "params", "params_sigma", "val_r2", "gap_closed",
+                                "beats_noise")},
+        "combined_top2": doc.get("combined_top2"),
+    }
+    return export_model({d.channel: model}, path, fmt,
+                        provenance={"source": source, "command": command_line()}, **meta)
 
 
 def run(args) -> int:
@@ -43,6 +92,7 @@ def run(args) -> int:
         raise ValueError("diagnose needs held-out records: pass --validate VAL [VAL ...] (the ranking is scored on them).")
     if args.wolves < 4 or args.iterations < 1:
         raise ValueError("--wolves must be >= 4 and --iterations >= 1.")
+    check_output_paths(args)
     cols = CHANNELS[args.channel]
     train = [load_record(p, required=cols) for p in args.files]
     val = [load_record(p, required=cols) for p in args.validate]
@@ -51,8 +101,15 @@ def run(args) -> int:
     settings = DiagnoseSettings(identify=ids, wolves=args.wolves, iterations=args.iterations, seed=args.seed)
     d = diagnose(train, val, args.channel, settings)
     print(d.summary())
+    source = ", ".join(args.files) + " (validated on " + ", ".join(args.validate) + ")"
     if args.json:
         atomic_write_text(args.json, json.dumps(d.to_json(), indent=2) + "\n")
     if args.plot:
         plot_diagnosis(d, args.plot)
+    if getattr(args, "export", None):
+        export_diagnosis(d, args.export, args.export_format, source)
+    if getattr(args, "report", None):
+        from .._report import write_diagnosis_report
+
+        write_diagnosis_report(d, args.report, source=source, command=command_line())
     return 0

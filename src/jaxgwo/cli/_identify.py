@@ -2,45 +2,97 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
+from collections.abc import Mapping
 
 JSON_SCHEMA_VERSION = 1
 
 
 def add_parser(sub) -> None:
+    from .._export import EXPORT_FORMATS
     from .._identify import METHODS
+    from ._main import HelpFormatter
 
     p = sub.add_parser(
         "identify",
         help="identify roll- and pitch-rate models from sweep flight data (default: the "
              "embedded R-50 dataset)",
         description=(
-            "Identify the paper's rate model K/(s^2 + s/tau + M) x servo for the lateral "
-            "(p/delta_lat) and longitudinal (q/delta_lon) channels: composite frequency "
-            "response, WLS start, then the chosen optimiser on the CIFER cost J. With no "
-            "FILE it identifies the embedded default dataset (both channels) and validates "
-            "on its held-out multi-step record."
+            "Identify the paper's rate model K/(s^2 + s/tau + M) x servo for the lateral\n"
+            "(p/delta_lat) and longitudinal (q/delta_lon) channels: composite frequency\n"
+            "response, WLS start, then the chosen optimiser on the CIFER cost J. Prints the\n"
+            "parameters with Cramer-Rao bounds, J and the held-out R^2 and TIC. With no FILE\n"
+            "it identifies the embedded default dataset (both channels) and validates on its\n"
+            "held-out multi-step record."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        epilog=(
+            "examples:\n"
+            "  jaxgwo identify                                   # the embedded dataset\n"
+            "  jaxgwo identify sweep.csv --validate check.csv --channel lateral\n"
+            "  jaxgwo identify --export models.json --report report.html --plot fig.png\n"
+            "\n"
+            "--export writes one file holding the model of every channel identified: a jaxgwo\n"
+            "model file (.json; jaxgwo.load_model(path, channel='lateral') reads it back bit\n"
+            "for bit) or a scipy-style .npz archive (num/den for one channel, lateral_num,\n"
+            "lateral_den, ... for several). Outputs are written atomically: a failed run leaves\n"
+            "no partial file."
+        ),
+        formatter_class=HelpFormatter,
     )
     p.add_argument("files", nargs="*", metavar="FILE",
-                   help="identification records (.csv or .npz in the jaxgwo flight-data format)")
+                   help="identification records (.csv or .npz in the jaxgwo flight-data "
+                        "format); none: the embedded default dataset")
     p.add_argument("--validate", nargs="+", metavar="FILE", default=None,
                    help="held-out validation records (nothing is fitted to them)")
-    p.add_argument("--channel", choices=("lateral", "longitudinal", "both"), default="both")
-    p.add_argument("--method", choices=METHODS, default="wls-igwo+polish")
-    p.add_argument("--seed", type=int, default=0, help="PRNG seed of the optimiser")
-    p.add_argument("--wolves", type=int, default=50)
-    p.add_argument("--iterations", type=int, default=500)
-    p.add_argument("--w-min", type=float, default=1.0, help="lowest frequency (rad/s)")
-    p.add_argument("--w-max", type=float, default=60.0, help="highest frequency (rad/s)")
-    p.add_argument("--coherence", type=float, default=0.6, help="coherence mask threshold")
+    p.add_argument("--channel", choices=("lateral", "longitudinal", "both"), default="both",
+                   help="lateral: p/delta_lat, longitudinal: q/delta_lon")
+    p.add_argument("--method", choices=METHODS, default="wls-igwo+polish",
+                   help="refinement after the WLS start (see README: What identify does)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="PRNG seed of the optimiser")
+    p.add_argument("--wolves", type=int, default=50, metavar="N", help="pack size of GWO/IGWO")
+    p.add_argument("--iterations", type=int, default=500, metavar="N", help="GWO/IGWO iterations")
+    p.add_argument("--w-min", type=float, default=1.0, metavar="RAD_S",
+                   help="lowest frequency (rad/s)")
+    p.add_argument("--w-max", type=float, default=60.0, metavar="RAD_S",
+                   help="highest frequency (rad/s)")
+    p.add_argument("--coherence", type=float, default=0.6, metavar="C",
+                   help="coherence threshold: frequencies below it are left out of J")
     p.add_argument("--json", metavar="OUT.json", help="write the stable JSON result here")
     p.add_argument("--plot", metavar="OUT.png", help="Bode, convergence and validation figure")
+    p.add_argument("--export", metavar="FILE",
+                   help="write the identified model(s) to FILE (.json model file or .npz)")
+    p.add_argument("--export-format", choices=EXPORT_FORMATS, default=None,
+                   help="format of --export (default: from its extension)")
+    p.add_argument("--report", metavar="OUT.html",
+                   help="self-contained HTML report: tables and figures in one file")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress line on stderr (shown only on a terminal anyway)")
     p.set_defaults(func=run)
+
+
+def check_output_paths(args, names=("json", "plot", "export", "report")) -> None:
+    """Fail before any work, not after a long run, when an output cannot be written."""
+    from pathlib import Path
+
+    for name in names:
+        path = getattr(args, name, None)
+        if path and not Path(path).resolve().parent.is_dir():
+            raise ValueError(f"--{name} directory does not exist: {Path(path).parent}")
+    export = getattr(args, "export", None)
+    if export:
+        from .._export import _format_for
+
+        _format_for(export, getattr(args, "export_format", None))
+    elif getattr(args, "export_format", None):
+        raise ValueError("--export-format needs --export FILE.")
+
+
+def command_line() -> str:
+    import shlex
+
+    return "jaxgwo " + " ".join(shlex.quote(a) for a in sys.argv[1:])
 
 
 def _load(paths, channels):
@@ -54,9 +106,10 @@ def _load(paths, channels):
 def run(args) -> int:
     from .._atomic import atomic_write_text
     from .._data import CHANNELS, default_dataset
-    from .._identify import IdentifySettings, identify_channels
+    from .._identify import IdentifySettings
 
     t0 = time.perf_counter()
+    check_output_paths(args)
     channels = ("lateral", "longitudinal") if args.channel == "both" else (args.channel,)
     settings = IdentifySettings(
         method=args.method, wolves=args.wolves, iterations=args.iterations, seed=args.seed,
@@ -81,21 +134,25 @@ def run(args) -> int:
     else:
         data = default_dataset()
         by_channel = {ch: [data.identification[ch]] for ch in channels}
-        # Each channel is scored on its own held-out record (its cyclic excited).
-        validation = (_load(args.validate, channels) if args.validate
-                      else {ch: [data.validation[ch]] for ch in channels})
+        if args.validate:
+            validation = _load(args.validate, channels)
+        elif isinstance(data.validation, Mapping):  # one held-out record per channel
+            validation = {ch: [data.validation[ch]] for ch in channels}
+        else:
+            validation = [data.validation]
         source = "embedded default dataset (simulated Yamaha R-50 hover)"
     if validation:
         for ch in channels:
             cols = CHANNELS[ch]
-            for rec in (validation[ch] if isinstance(validation, dict) else validation):
+            recs = validation.get(ch, []) if isinstance(validation, Mapping) else validation
+            for rec in recs:
                 missing = [c for c in cols if c not in rec.columns]
                 if missing:
                     raise ValueError(
                         f"validation record lacks {ch} column(s) {missing}; it has "
                         f"{', '.join(rec.columns)}."
                     )
-    results = identify_channels(by_channel, settings, validation)
+    results = _identify_with_progress(by_channel, settings, validation, args.quiet)
     wall = time.perf_counter() - t0
     print(summary_table(results, source, wall))
     if args.json:
@@ -105,7 +162,57 @@ def run(args) -> int:
         from .._plots import plot_identification
 
         plot_identification(list(results.values()), args.plot)
+    if args.export:
+        export_results(results, args.export, args.export_format, source)
+    if args.report:
+        from .._report import write_identification_report
+
+        write_identification_report(results, args.report, source=source, wall_s=wall,
+                                    command=command_line())
     return 0
+
+
+def _identify_with_progress(by_channel, settings, validation, quiet):
+    """:func:`jaxgwo.identify_channels` in its stages, with a progress line between the
+    compiled calls: a frequency response and WLS start per channel, then one batched
+    optimiser call for all channels (and the validation simulations)."""
+    from .. import _identify as I
+    from .._progress import Progress
+
+    channels = list(by_channel)
+    with Progress(len(channels) + 1, "identify", "stages", quiet=quiet) as bar:
+        preps = []
+        for i, ch in enumerate(channels):
+            bar.update(i, f"{ch}: frequency response, WLS start")
+            preps.append(I._prepare(list(by_channel[ch]), ch, settings))
+        check = getattr(I, "_check_validation", None)  # held-out records checked up front
+        if check is not None:
+            check(validation, channels, settings)
+        bar.update(len(channels), f"{settings.method}: {len(channels)} channel(s) in one "
+                   "call" + (", validation" if validation else ""))
+        results = I._identify_prepared(preps, settings, validation)
+        bar.update(len(channels) + 1)
+    return results
+
+
+def export_results(results, path: str, fmt: str | None, source: str) -> str:
+    """Export every channel's model to one file (see ``jaxgwo identify --help``)."""
+    from .._export import export_model
+
+    per_channel = {}
+    for ch, r in results.items():
+        unc = r.uncertainty.as_dict()
+        v = r.validation
+        per_channel[ch] = {
+            "method": r.method, "seed": r.seed, "cost_J": r.cost_J, "wls_cost_J": r.wls_cost_J,
+            "frequencies_used": int(r.response.n_passing),
+            "cramer_rao_percent": {k: d["cr_percent"] for k, d in unc.items()},
+            "validation_r2": None if v is None else v.r2,
+            "validation_tic": None if v is None else v.tic,
+        }
+    return export_model({ch: r.model for ch, r in results.items()}, path, fmt,
+                        provenance={"source": source, "command": command_line()},
+                        per_channel=per_channel)
 
 
 def summary_table(results, source: str, wall_s: float) -> str:

@@ -20,15 +20,47 @@ class UserError(Exception):
     """An error in the user's input: printed as one line, exit status 2."""
 
 
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions and epilogs kept as written (examples stay aligned); an option's
+    default is appended to its help when it has a meaningful one (not None/False) and the
+    help does not already give it."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        default = action.default
+        if (default is None or default is False or default == argparse.SUPPRESS
+                or "default" in text or "%(default)" in text or not action.option_strings
+                or isinstance(default, list) and not default):
+            return text
+        return text + " (default: %(default)s)"
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from jaxgwo import __version__
+
     parser = argparse.ArgumentParser(
         prog="jaxgwo",
         description=(
-            "Frequency-domain system identification of small unmanned helicopters "
-            "with a batched grey wolf optimiser (GWO / IGWO) in JAX."
+            "Frequency-domain system identification of small unmanned helicopters\n"
+            "with a batched grey wolf optimiser (GWO / IGWO) in JAX, float64 throughout."
         ),
+        epilog=(
+            "Run `jaxgwo COMMAND --help` for a command's options. Input errors end in one\n"
+            "line on stderr with exit status 2; outputs are written atomically (a failed run\n"
+            "leaves no partial file). JAX's compilation cache lives in $JAXGWO_CACHE_DIR\n"
+            "(default ~/.cache/jaxgwo/xla; JAXGWO_CACHE_DIR=off disables it).\n"
+            "\n"
+            "examples:\n"
+            "  jaxgwo identify --report report.html     # the embedded R-50 dataset\n"
+            "  jaxgwo simulate --channel lateral --excitation sweep --out sweep.csv\n"
+            "  jaxgwo compare                           # GWO vs IGWO, reduced"
+        ),
+        formatter_class=HelpFormatter,
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    parser.add_argument("--version", action="version", version=f"jaxgwo {__version__}")
+    parser.add_argument("--quiet", "-q", dest="global_quiet", action="store_true",
+                        help="no progress lines on stderr, for every command")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
     for name in _SUBCOMMANDS:
         try:
             module = importlib.import_module(name)
@@ -71,6 +103,9 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
+    # `jaxgwo --quiet CMD` and `jaxgwo CMD --quiet` mean the same (separate dests: a
+    # subcommand's own default would otherwise overwrite the global flag)
+    args.quiet = bool(getattr(args, "quiet", False) or args.global_quiet)
     enable_compilation_cache()
     try:
         return int(args.func(args) or 0)

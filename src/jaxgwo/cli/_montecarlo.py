@@ -16,8 +16,10 @@ in chunks of compiled, vmapped calls, and summarise: parameter distributions, su
 (all parameters within --tolerance of the truth), cost quantiles.  Memory stays bounded:
 only each seed's final cost and parameters are kept.
 
+A progress line per chunk (rate, ETA) is shown on a terminal; --quiet hides it.
+
 Examples:
-  jaxgwo montecarlo --seeds 1000 --json mc.json --plot mc.png
+  jaxgwo montecarlo --seeds 1000 --json mc.json --plot mc.png --convergence-plot conv.png
   jaxgwo montecarlo --seeds 10000 --chunk 100 --method igwo --wolves 50 --iterations 500
 """
 
@@ -48,7 +50,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="also report per-iteration quantiles of the best cost over seeds")
     p.add_argument("--json", metavar="OUT", help="write the summary as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="write parameter and cost histograms")
-    p.add_argument("--quiet", action="store_true", help="no progress or summary on the terminal")
+    p.add_argument("--convergence-plot", metavar="OUT.png",
+                   help="write the best cost per iteration, median and IQR band over seeds "
+                        "(implies --histories)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress line (shown only on a terminal) and no summary")
     p.set_defaults(func=run)
     return p
 
@@ -66,7 +72,8 @@ def _check(args) -> None:
         raise ValueError(f"--iterations must be >= 1, got {args.iterations}")
     if not (math.isfinite(args.tolerance) and args.tolerance > 0):
         raise ValueError(f"--tolerance must be a positive number, got {args.tolerance}")
-    for flag, path in (("--json", args.json), ("--plot", args.plot)):
+    for flag, path in (("--json", args.json), ("--plot", args.plot),
+                       ("--convergence-plot", args.convergence_plot)):
         if path and not Path(path).resolve().parent.is_dir():
             raise ValueError(f"{flag} directory does not exist: {Path(path).parent}")
 
@@ -88,28 +95,21 @@ def run(args) -> int:
     import jaxgwo
     from jaxgwo._atomic import atomic_write_text
     from jaxgwo._montecarlo import monte_carlo, plot_monte_carlo
+    from jaxgwo._progress import Progress
     from jaxgwo._testfunctions import HELICOPTER_TRUTH, helicopter_problem
 
     problem = helicopter_problem()
     make = jaxgwo.igwo if args.method == "igwo" else jaxgwo.gwo
     config = make(args.wolves, args.iterations)
-    show_progress = not args.quiet and sys.stderr.isatty()
-
-    def progress(done: int, total: int) -> None:
-        width = 30
-        filled = int(width * done / total)
-        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} seeds")
-        if done == total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
-
-    summary = monte_carlo(
-        config, problem.objective, problem.lower(), problem.upper(),
-        jax.random.key(args.seed), args.seeds, chunk=args.chunk,
-        truth=HELICOPTER_TRUTH, tolerance=args.tolerance,
-        keep_histories=args.histories, parameter_names=PARAMETER_NAMES,
-        progress=progress if show_progress else None,
-    )
+    histories = args.histories or bool(args.convergence_plot)
+    with Progress(args.seeds, "montecarlo", "seeds", quiet=args.quiet) as bar:
+        summary = monte_carlo(
+            config, problem.objective, problem.lower(), problem.upper(),
+            jax.random.key(args.seed), args.seeds, chunk=args.chunk,
+            truth=HELICOPTER_TRUTH, tolerance=args.tolerance,
+            keep_histories=histories, parameter_names=PARAMETER_NAMES,
+            progress=lambda done, total: bar.update(done),
+        )
     report = summary.to_json()
     report["method"] = args.method
     report["wolves"] = args.wolves
@@ -121,6 +121,12 @@ def run(args) -> int:
         atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
     if args.plot:
         plot_monte_carlo(summary, args.plot)
+    if args.convergence_plot:
+        from jaxgwo._plots import bands_from_montecarlo, plot_convergence
+
+        plot_convergence({f"{args.method}, {args.wolves} wolves": bands_from_montecarlo(summary)},
+                         args.convergence_plot, ylabel="best cost",
+                         title="reference helicopter fit: best cost over seeds")
     if not args.quiet:
         cost = report["cost"]
         print(f"{summary.n_seeds} seeds ({args.method}, {args.wolves} wolves x "
