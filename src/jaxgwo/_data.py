@@ -24,6 +24,7 @@ import csv
 import io
 import json
 import os
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -58,6 +59,7 @@ TIME_TOLERANCE = 0.01
 """Allowed deviation of each time step from the median step, as a fraction of the step."""
 
 _NPZ_METADATA_KEY = "__metadata__"
+_UNDECODABLE = re.compile("[\udc80-\udcff]")  # bytes that were not UTF-8 (surrogateescape)
 
 
 class FlightDataError(ValueError):
@@ -144,17 +146,21 @@ class FlightRecord(eqx.Module):
         )
 
 
-def _metadata_items(metadata: Mapping[str, object] | None) -> tuple[tuple[str, str], ...]:
+def _metadata_items(
+    metadata: Mapping[str, object] | None, where: str = "record"
+) -> tuple[tuple[str, str], ...]:
     if not metadata:
         return ()
     items = []
     for k, v in metadata.items():
         key = str(k).strip()
         if not key or ":" in key or "\n" in key:
-            raise FlightDataError(f"metadata key {k!r} must be non-empty, without ':' or newline")
+            raise FlightDataError(
+                f"{where}: metadata key {k!r} must be non-empty, without ':' or newline"
+            )
         text = str(v)
         if "\n" in text:
-            raise FlightDataError(f"metadata value for {key!r} must be a single line")
+            raise FlightDataError(f"{where}: metadata value for {key!r} must be a single line")
         items.append((key, text))
     return tuple(sorted(items))
 
@@ -194,8 +200,12 @@ def _build(
     required: Sequence[str],
     mapping: Mapping[str, str] | None,
     line_of: Sequence[int] | None,
+    text_columns: Sequence[str] = (),
 ) -> FlightRecord:
-    """Common validation of CSV and NPZ contents, then the frozen record."""
+    """Common validation of CSV and NPZ contents, then the frozen record.
+
+    ``text_columns``: CSV columns dropped as non-numeric; they are listed (marked as text)
+    when a required column is missing, so the message shows every column the file has."""
     mapping = dict(mapping or {})
     unknown = set(mapping) - {"time", *INPUT_NAMES, *OUTPUT_NAMES}
     if unknown:
@@ -204,12 +214,22 @@ def _build(
             f"map from time, {', '.join(INPUT_NAMES + OUTPUT_NAMES)}"
         )
     file_name = {name: mapping.get(name, name) for name in ("time", *INPUT_NAMES, *OUTPUT_NAMES)}
-    existing = ", ".join(columns) if columns else "(none)"
+    names = [*columns, *(f"{c!r} (text, dropped)" for c in text_columns)]
+    existing = ", ".join(names) if names else "(none)"
     for name in ("time", *required):
         src = file_name.get(name, name)
         if src not in columns:
             shown = name if src == name else f"{src!r} (for {name})"
-            raise FlightDataError(f"{where}: missing column {shown}; the columns are: {existing}")
+            hint = ""
+            if len(columns) + len(text_columns) == 1 and any(
+                sep in c for c in [*columns, *text_columns] for sep in ";\t|"
+            ):
+                hint = "; the header looks like one column: separate the columns by commas"
+            elif src in text_columns:
+                hint = f"; column {src!r} holds text, it must be numeric"
+            raise FlightDataError(
+                f"{where}: missing column {shown}; the columns are: {existing}{hint}"
+            )
 
     def row(i: int) -> str:
         return f"row {i}" + (f" (line {line_of[i]})" if line_of is not None else "")
@@ -252,17 +272,27 @@ def _build(
         outputs={k: arr(picked[k]) for k in OUTPUT_NAMES if k in picked},
         extras={k: arr(v) for k, v in extras.items()},
         sample_rate=rate,
-        metadata_items=_metadata_items(metadata),
+        metadata_items=_metadata_items(metadata, where),
     )
 
 
-def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str], list[int]]:
+def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str], list[int], list[str]]:
     metadata: dict[str, str] = {}
     header: list[str] | None = None
     rows: list[list[str]] = []
     lines: list[int] = []
-    with open(path, newline="", encoding="utf-8") as fh:
+    # utf-8-sig: a byte-order mark (Excel writes one) is not part of the first column name
+    with open(path, newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
         for lineno, raw in enumerate(fh, start=1):
+            if not raw.isascii() and _UNDECODABLE.search(raw):
+                raise FlightDataError(
+                    f"{path}: line {lineno} is not UTF-8 text; save the file as UTF-8 CSV "
+                    "(a binary file or another encoding?)"
+                )
+            if "\x00" in raw:
+                raise FlightDataError(
+                    f"{path}: line {lineno} holds a NUL byte; this is not a text CSV file"
+                )
             text = raw.strip()
             if not text:
                 continue
@@ -275,6 +305,13 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str], list[i
             cells = [c.strip() for c in next(csv.reader([text]))]
             if header is None:
                 header = cells
+                # a logger that ends every line with a comma makes one trailing, empty,
+                # nameless column: tolerated (and dropped below when it is empty)
+                if "" in header[:-1] or (header[-1:] == [""] and len(header) == 1):
+                    raise FlightDataError(
+                        f"{path}: the header (line {lineno}) has an empty column name at "
+                        f"position {header.index('') + 1}; name every column"
+                    )
                 if len(set(header)) != len(header):
                     dup = sorted({h for h in header if header.count(h) > 1})
                     raise FlightDataError(f"{path}: duplicate column name(s) {dup} in the header")
@@ -290,6 +327,15 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str], list[i
     columns: dict[str, np.ndarray] = {}
     dropped: list[str] = []
     for j, name in enumerate(header):
+        if name == "":  # the trailing nameless column
+            filled = [i for i, r in enumerate(rows) if r[j] != ""]
+            if filled:
+                i = filled[0]
+                raise FlightDataError(
+                    f"{path}: the last column has no name in the header but holds "
+                    f"{rows[i][j]!r} at row {i} (line {lines[i]}); name every column"
+                )
+            continue
         values = np.empty(len(rows), dtype=np.float64)
         numeric = True
         for i, r in enumerate(rows):
@@ -310,15 +356,30 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str], list[i
             dropped.append(name)
     if dropped:
         metadata["dropped_text_columns"] = ", ".join(dropped)
-    return columns, metadata, lines
+    return columns, metadata, lines, dropped
 
 
 def _read_npz(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    with open(path, "rb") as fh:
+        magic = fh.read(4)
+    if magic not in (b"PK\x03\x04", b"PK\x05\x06"):  # an .npz is a zip archive (the
+        # second signature: an empty one); anything else np.load would
+        # try to unpickle (refused) or read as a bare .npy array
+        what = "an empty file" if not magic else "not a NumPy .npz archive (a zip file)"
+        raise FlightDataError(
+            f"{path}: {what}; write it with numpy.savez(path, time=..., p=...) "
+            "or save it as .csv"
+        )
     try:
         with np.load(path, allow_pickle=False) as npz:
             raw = {k: npz[k] for k in npz.files}
     except ValueError as err:  # object arrays need pickle, which we refuse
-        raise FlightDataError(f"{path}: cannot read without pickle ({err})") from None
+        raise FlightDataError(
+            f"{path}: cannot read without pickle: an array holds Python objects, which jaxgwo "
+            f"never unpickles; save numeric arrays ({err})"
+        ) from None
+    except (OSError, EOFError, KeyError) as err:  # a damaged zip
+        raise FlightDataError(f"{path}: cannot read the .npz archive ({err})") from None
     metadata: dict[str, str] = {}
     if _NPZ_METADATA_KEY in raw:
         try:
@@ -329,8 +390,11 @@ def _read_npz(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     for k, v in raw.items():
         if v.ndim != 1:
             raise FlightDataError(f"{path}: array {k!r} has shape {v.shape}; columns must be 1-D")
-        if not np.issubdtype(v.dtype, np.number):
-            raise FlightDataError(f"{path}: array {k!r} has non-numeric dtype {v.dtype}")
+        if not (np.issubdtype(v.dtype, np.integer) or np.issubdtype(v.dtype, np.floating)):
+            raise FlightDataError(
+                f"{path}: array {k!r} has dtype {v.dtype}; columns must be real numbers "
+                "(integer or float)"
+            )
         columns[k] = np.asarray(v, dtype=np.float64)
     lengths = {k: v.shape[0] for k, v in columns.items()}
     if len(set(lengths.values())) > 1:
@@ -366,8 +430,9 @@ def load_record(
     if p.suffix.lower() == ".npz":
         cols, meta = _read_npz(p)
         return _build(cols, meta, where=str(p), required=required, mapping=columns, line_of=None)
-    cols, meta, lines = _read_csv(p)
-    return _build(cols, meta, where=str(p), required=required, mapping=columns, line_of=lines)
+    cols, meta, lines, text = _read_csv(p)
+    return _build(cols, meta, where=str(p), required=required, mapping=columns, line_of=lines,
+                  text_columns=text)
 
 
 def make_record(
@@ -378,14 +443,37 @@ def make_record(
     required: Sequence[str] = (),
 ) -> FlightRecord:
     """Build a validated record from in-memory arrays (same checks as the loader)."""
-    cols = {"time": np.asarray(time, dtype=np.float64)}
+    cols = {"time": _real_column("time", time)}
+    if cols["time"].ndim != 1:
+        raise FlightDataError(f"record: time has shape {cols['time'].shape}; it must be 1-D")
     for k, v in columns.items():
-        a = np.asarray(v, dtype=np.float64)
+        if not isinstance(k, str) or not k:
+            raise FlightDataError(f"record: column name {k!r} must be a non-empty string")
+        a = _real_column(k, v)
         if a.shape != cols["time"].shape:
-            raise FlightDataError(f"column {k!r} has shape {a.shape}, time has {cols['time'].shape}")
+            raise FlightDataError(
+                f"record: column {k!r} has shape {a.shape}, time has {cols['time'].shape}; "
+                "every column needs one value per time sample"
+            )
         cols[k] = a
     meta = dict(_metadata_items(metadata))
     return _build(cols, meta, where="record", required=required, mapping=None, line_of=None)
+
+
+def _real_column(name: str, values: object) -> np.ndarray:
+    """``values`` as a float64 array, or a :class:`FlightDataError` naming the column."""
+    try:
+        a = np.asarray(values)
+    except ValueError as err:  # ragged nested sequences
+        raise FlightDataError(f"record: column {name!r} is not a rectangular array ({err})") from None
+    if a.dtype == np.bool_ or not (
+        np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)
+    ):
+        raise FlightDataError(
+            f"record: column {name!r} has dtype {a.dtype}; columns must be real numbers "
+            "(integer or float arrays)"
+        )
+    return a.astype(np.float64)
 
 
 def _format_csv(record: FlightRecord, digits: int) -> str:

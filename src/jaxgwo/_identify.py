@@ -61,6 +61,20 @@ class IdentificationError(ValueError):
     """The data cannot support the requested identification (the message says why)."""
 
 
+def _need_int(name: str, value, minimum: int | None, why: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name}={value!r} must be an integer ({why}).")
+    if minimum is not None and value < minimum:
+        raise ValueError(f"{name}={value!r}: pass {name} >= {minimum} ({why}).")
+
+
+def _need_real(name: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}={value!r} must be a number.")
+    if math.isnan(value):
+        raise ValueError(f"{name} is NaN; pass a number.")
+
+
 @dataclass(frozen=True)
 class IdentifySettings:
     """Everything that shapes an identification run.
@@ -95,15 +109,38 @@ class IdentifySettings:
     def __post_init__(self):
         if self.method not in METHODS:
             raise ValueError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}.")
-        if not 0.0 < self.w_min < self.w_max:
+        _need_int("wolves", self.wolves, 4, "a grey wolf pack needs alpha, beta, delta and an "
+                  "omega (the paper uses 50)")
+        _need_int("iterations", self.iterations, 1, "the paper uses 500")
+        _need_int("seed", self.seed, None, "any integer")
+        _need_int("n_frequencies", self.n_frequencies, 20, "the CIFER cost needs >= 20")
+        _need_int("sk_iterations", self.sk_iterations, 0, "Sanathanan-Koerner passes")
+        _need_int("polish_steps", self.polish_steps, 0, "L-BFGS steps")
+        for name in ("w_min", "w_max", "coherence_threshold", "search_factor", "seed_spread",
+                     "seeded_fraction"):
+            _need_real(name, getattr(self, name))
+        if not 0.0 < self.w_min < self.w_max < math.inf:
             raise ValueError(
-                f"frequency band [{self.w_min}, {self.w_max}] rad/s is empty or inverted; "
-                "pass 0 < w_min < w_max."
+                f"frequency band [{self.w_min}, {self.w_max}] rad/s is empty or inverted, or "
+                "not finite; pass 0 < w_min < w_max (finite)."
             )
-        if self.search_factor <= 1.0:
-            raise ValueError(f"search_factor {self.search_factor} must exceed 1.")
-        if self.n_frequencies < 20:
-            raise ValueError(f"n_frequencies {self.n_frequencies}: the CIFER cost needs >= 20.")
+        if not 0.0 <= self.coherence_threshold < 1.0:
+            raise ValueError(
+                f"coherence_threshold {self.coherence_threshold}: pass a value in [0, 1) "
+                "(0.6 is usual)."
+            )
+        if not 1.0 < self.search_factor < math.inf:
+            raise ValueError(f"search_factor {self.search_factor} must be finite and exceed 1.")
+        if not 0.0 <= self.seed_spread < math.inf:
+            raise ValueError(f"seed_spread {self.seed_spread} must be finite and >= 0.")
+        if not 0.0 <= self.seeded_fraction <= 1.0:
+            raise ValueError(f"seeded_fraction {self.seeded_fraction} must lie in [0, 1].")
+        if self.detrend not in (None, "constant", "linear"):
+            raise ValueError(f"detrend {self.detrend!r}: choose None, 'constant' or 'linear'.")
+        if self.lowpass_hz is not None:
+            _need_real("lowpass_hz", self.lowpass_hz)
+            if not 0.0 < self.lowpass_hz < math.inf:
+                raise ValueError(f"lowpass_hz {self.lowpass_hz}: pass a positive cutoff or None.")
 
     def optimiser(self) -> G.GreyWolfConfig:
         if self.method == "wls-gwo":
@@ -162,16 +199,70 @@ def channel_signals(record: FlightRecord, channel: str) -> tuple[np.ndarray, np.
     return np.asarray(record[u_name], float), np.asarray(record[y_name], float)
 
 
-def _preprocessed(records, channel, settings):
+MIN_SAMPLES = 5
+"""Fewest samples a record may have (the wild-value check predicts each sample from four
+neighbours)."""
+
+MAX_ABS_SAMPLE = 1e150
+"""Largest sample magnitude identification accepts: the fit's mean-square error and the
+validation's R^2 square the samples, which overflows float64 (1.8e308) beyond about 1e154."""
+
+MAX_GAIN_DECADES = 100
+"""The measured gain |H| must lie within ``10**-100 .. 10**100``: the CIFER cost and the
+WLS weights square it, which overflows float64 beyond about 1e154."""
+
+
+def _check_signals(rec: FlightRecord, channel: str, role: str, index: int) -> None:
+    """Reject a record identification cannot use, naming the record, column and row."""
+    u_name, y_name = CHANNELS[channel]
+    where = f"{role} record {index} ({channel} channel)"
+    if rec.n_samples < MIN_SAMPLES:
+        raise IdentificationError(
+            f"{where} has {rec.n_samples} samples; identification needs at least "
+            f"{MIN_SAMPLES}. Use a longer record."
+        )
+    for name in (u_name, y_name):
+        x = np.asarray(rec[name], float)
+        big = np.flatnonzero(~(np.abs(x) <= MAX_ABS_SAMPLE))
+        if big.size:
+            i = int(big[0])
+            raise IdentificationError(
+                f"{where}: column {name!r} reaches {x[i]:.3g} at row {i}, beyond "
+                f"{MAX_ABS_SAMPLE:.0e}; rescale the column (check its units)."
+            )
+
+
+def _check_varies(raw: np.ndarray, clean: np.ndarray, where: str, role: str, name: str,
+                  what: str) -> None:
+    """A signal that preprocessing leaves flat (constant, or a straight line that the
+    detrend removes) carries no frequency content: its spectra are rounding noise."""
+    scale = float(np.max(np.abs(raw)))
+    if not np.ptp(clean) > 1e-9 * scale:
+        raise IdentificationError(
+            f"{where}: the {role} is constant (column {name!r}, or a straight line, which "
+            f"detrending removes), so {what}."
+        )
+
+
+def _preprocessed(records, channel, settings, role="identification"):
     pairs, reports = [], []
-    for rec in records:
+    u_name, y_name = CHANNELS.get(channel, ("input", "output"))
+    for i, rec in enumerate(records):
         u, y = channel_signals(rec, channel)
+        _check_signals(rec, channel, role, i)
         clean, report = preprocess(
             np.asarray(rec.time), {"u": u, "y": y}, wild_values=settings.wild_values,
             detrend_kind=settings.detrend, lowpass_hz=settings.lowpass_hz,
         )
         pairs.append((np.asarray(clean["u"]), np.asarray(clean["y"])))
         reports.append(report)
+        where = f"{role} record {i} ({channel} channel)"
+        _check_varies(u, pairs[-1][0], where, "input", u_name,
+                      "nothing excites the channel; use a record with a frequency sweep on "
+                      "that cyclic")
+        _check_varies(y, pairs[-1][1], where, "output", y_name,
+                      "there is no response to identify or score; check that the rate "
+                      "column is the one the gyro logged")
     return pairs, tuple(reports)
 
 
@@ -292,7 +383,7 @@ def _time_mse(model: PaperModel, pairs, dt) -> float:
 def validate(model: PaperModel, records: Sequence[FlightRecord], channel: str,
              settings: IdentifySettings) -> Validation:
     """Simulate ``model`` from each held-out record's input; score against its output."""
-    pairs, _ = _preprocessed(records, channel, settings)
+    pairs, _ = _preprocessed(records, channel, settings, role="validation")
     times, meas, pred = [], [], []
     for rec, (u, y) in zip(records, pairs):
         t = np.asarray(rec.time) - float(rec.time[0])
@@ -335,12 +426,6 @@ def _prepare(records, channel, settings) -> _Prepared:
         raise IdentificationError(f"no identification records for the {channel} channel.")
     fs = _check_rates(records)
     pairs, reports = _preprocessed(records, channel, settings)
-    for u, _y in pairs:
-        if np.ptp(u) == 0.0:
-            raise IdentificationError(
-                f"the {channel} input is constant in a record: nothing excites the channel; "
-                "use a record with a frequency sweep on that cyclic."
-            )
     try:
         response = composite_frequency_response(
             pairs, fs, w_min=settings.w_min, w_max=settings.w_max,
@@ -354,8 +439,62 @@ def _prepare(records, channel, settings) -> _Prepared:
     return _prepare_response(response, channel, settings, pairs, reports, 1.0 / fs)
 
 
+def _check_response(response: FrequencyResponse, channel: str) -> None:
+    """Reject a frequency response the cost cannot use (given directly, or measured)."""
+    if not isinstance(response, FrequencyResponse):
+        raise IdentificationError(
+            f"{channel}: expected a FrequencyResponse, got {type(response).__name__}; build "
+            "one with FrequencyResponse.from_complex(w, H, coherence)."
+        )
+    w = np.asarray(response.w)
+    H = np.asarray(response.H)
+    coh = np.asarray(response.coherence)
+    mask = np.asarray(response.mask)
+    if w.ndim != 1 or w.size < 2:
+        raise IdentificationError(f"{channel}: the frequencies w have shape {w.shape}; pass a 1-D grid.")
+    for name, a in (("H", H), ("coherence", coh), ("mask", mask)):
+        if a.shape != w.shape:
+            raise IdentificationError(
+                f"{channel}: {name} has shape {a.shape} but w has {w.shape}; one value per frequency."
+            )
+    bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
+    if bad.size:
+        i = int(bad[0])
+        raise IdentificationError(
+            f"{channel}: frequency w[{i}] = {float(w[i])!r} rad/s; every frequency must be "
+            "finite and positive."
+        )
+    bad = np.flatnonzero(np.diff(w) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise IdentificationError(
+            f"{channel}: frequencies are not strictly increasing at w[{i}] = {float(w[i])!r} "
+            f"rad/s (after {float(w[i - 1])!r}); sort them and drop duplicates."
+        )
+    mag = np.abs(H)
+    used = mask & np.isfinite(mag)
+    bad = np.flatnonzero(used & ~(np.isfinite(coh) & (coh >= 0.0) & (coh <= 1.0)))
+    if bad.size:
+        i = int(bad[0])
+        raise IdentificationError(
+            f"{channel}: coherence at w[{i}] = {w[i]:.4g} rad/s is {float(coh[i])!r}; the "
+            "magnitude-squared coherence lies in [0, 1]."
+        )
+    with np.errstate(divide="ignore"):
+        decades = np.abs(np.log10(mag))
+    bad = np.flatnonzero(used & ~(decades <= MAX_GAIN_DECADES))
+    if bad.size:
+        i = int(bad[0])
+        raise IdentificationError(
+            f"{channel}: the gain |H| at w[{i}] = {w[i]:.4g} rad/s is {mag[i]:.3g}, outside "
+            f"1e-{MAX_GAIN_DECADES}..1e{MAX_GAIN_DECADES}; rescale the input or output "
+            "(check their units)."
+        )
+
+
 def _prepare_response(response, channel, settings, pairs=(), reports=(), dt=float("nan")):
     """A measured response -> sign normalisation -> WLS start -> CIFER objective."""
+    _check_response(response, channel)
     if response.n_passing < 20:
         raise IdentificationError(
             f"{channel}: only {response.n_passing} of {response.w.shape[0]} frequencies "
@@ -415,6 +554,14 @@ def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings
     p = canonicalize_paper_params(pmap.params_from_vector(x_best))
     model_n = PaperModel.from_array(p)
     cost = float(prep.objective.cost(model_n))
+    if not (np.all(np.isfinite(np.asarray(p))) and math.isfinite(cost)):
+        # never hand back NaN parameters or an infinite cost as if they were a result
+        raise IdentificationError(
+            f"{prep.channel}: the {settings.method} fit ended at non-finite parameters or cost "
+            f"(params {np.asarray(p).tolist()}, J = {cost}); the response is probably not "
+            "a rate response of this model (check the coherence and the columns), or try "
+            "another --method."
+        )
     wls_cost = float(prep.objective.cost(prep.start))
     flip = jnp.asarray([prep.sign, 1.0, 1.0, 1.0, 1.0])
     model = PaperModel.from_array(p * flip)
@@ -459,8 +606,48 @@ def identify_channels(
     held out: nothing is fitted to them.  Either one list scored for every channel, or
     ``{channel: [records]}`` (a channel left out is not validated).
     """
+    _check_record_lists(records, "records")
+    if validation is not None:
+        _check_record_lists(validation if isinstance(validation, Mapping)
+                            else {"any channel": validation}, "validation")
+    _check_validation(validation, list(records), settings)
     preps = [_prepare(list(recs), ch, settings) for ch, recs in records.items()]
     return _identify_prepared(preps, settings, validation)
+
+
+def _check_record_lists(records, what: str) -> None:
+    """``{name: [FlightRecord, ...]}``, or a clear error saying what was passed instead."""
+    if not isinstance(records, Mapping):
+        raise IdentificationError(
+            f"{what} must be a dict {{channel: [FlightRecord, ...]}}, not "
+            f"{type(records).__name__}."
+        )
+    if what == "records" and not records:
+        raise IdentificationError("no channel to identify: pass {'lateral': [record, ...]}.")
+    for name, recs in records.items():
+        if isinstance(recs, (FlightRecord, str, bytes)) or not isinstance(recs, Sequence):
+            raise IdentificationError(
+                f"{what}[{name!r}] must be a list of FlightRecord, not "
+                f"{type(recs).__name__}; wrap a single record in a list."
+            )
+        for i, r in enumerate(recs):
+            if not isinstance(r, FlightRecord):
+                raise IdentificationError(
+                    f"{what}[{name!r}][{i}] is a {type(r).__name__}, not a FlightRecord; "
+                    "load files with jaxgwo load_record or build arrays with make_record."
+                )
+
+
+def _check_validation(validation, channels, settings) -> None:
+    """Reject unusable held-out records before the optimiser runs, not after."""
+    if not validation:
+        return
+    for ch in channels:
+        if ch not in CHANNELS:
+            continue  # _prepare names the unknown channel
+        recs = validation.get(ch) if isinstance(validation, Mapping) else validation
+        if recs:
+            _preprocessed(list(recs), ch, settings, role="validation")
 
 
 def identify_responses(
@@ -470,6 +657,10 @@ def identify_responses(
     """Identify the paper model from already-measured frequency responses (for example a
     CIFER export, or an analytic response), one batched optimiser call for all channels.
     ``fit.mse`` is NaN: there is no time history to simulate."""
+    if not isinstance(responses, Mapping) or not responses:
+        raise IdentificationError(
+            "pass the responses as a non-empty dict {channel: FrequencyResponse}."
+        )
     preps = [_prepare_response(r, ch, settings) for ch, r in responses.items()]
     return _identify_prepared(preps, settings, None)
 

@@ -34,6 +34,9 @@ import scipy.interpolate
 import scipy.ndimage
 import scipy.signal
 
+# the loader's tolerance on the time step: whatever the loader accepts, preprocessing accepts
+from ._data import TIME_TOLERANCE
+
 __all__ = [
     "SignalReport",
     "PreprocessReport",
@@ -99,14 +102,27 @@ class PreprocessReport(eqx.Module):
 
 
 def _sample_rate(time: np.ndarray) -> float:
+    """Sample rate (Hz) of a uniformly sampled time vector, ``1/mean(diff(time))``."""
     time = np.asarray(time, dtype=float)
     if time.ndim != 1 or time.size < 3:
-        raise ValueError("time must be a 1-D array with at least 3 samples")
+        raise ValueError(
+            f"time has shape {time.shape}: preprocessing needs a 1-D record of at least "
+            "3 samples"
+        )
+    if not np.all(np.isfinite(time)):
+        i = int(np.flatnonzero(~np.isfinite(time))[0])
+        raise ValueError(f"time is not finite at row {i} ({time[i]!r})")
     dt = np.diff(time)
     if np.any(dt <= 0):
-        raise ValueError("time must be strictly increasing")
-    if np.max(np.abs(dt - dt.mean())) > 1e-6 * max(dt.mean(), 1e-300) + 1e-9:
-        raise ValueError("time must be uniformly sampled (resample the record first)")
+        i = int(np.flatnonzero(dt <= 0)[0]) + 1
+        raise ValueError(f"time must be strictly increasing; it is not at row {i}")
+    med = float(np.median(dt))
+    off = np.flatnonzero(np.abs(dt - med) > TIME_TOLERANCE * med)
+    if off.size:
+        raise ValueError(
+            f"time must be uniformly sampled (each step within {TIME_TOLERANCE:.0%} of the "
+            f"median); the step before row {int(off[0]) + 1} is not: resample the record first"
+        )
     return float(1.0 / dt.mean())
 
 

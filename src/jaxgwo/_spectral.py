@@ -200,6 +200,14 @@ def _as_records(records) -> list[Record]:
     return out
 
 
+def _power_of_two_scale(signals: Sequence[np.ndarray]) -> float:
+    """The power of two nearest the largest magnitude in ``signals`` (1 for all-zero)."""
+    peak = max((float(np.max(np.abs(x))) if x.size else 0.0) for x in signals)
+    if peak == 0.0:
+        return 1.0
+    return float(np.ldexp(1.0, int(np.frexp(peak)[1])))
+
+
 def _segment_sums(u, y, nperseg, noverlap, win, detrend):
     step = nperseg - noverlap
     nseg = (u.size - noverlap) // step if u.size >= nperseg else 0
@@ -341,6 +349,12 @@ def composite_frequency_response(
     reaches the coherence threshold.
     """
     recs = _as_records(records)
+    # Work on signals scaled by powers of two near their peaks, so the spectra neither
+    # overflow (|u|^2 summed over a segment passes 1e308 for samples near 1e150) nor
+    # underflow; powers of two scale exactly, so ordinary data give identical results.
+    # H is put back on the data's scale at the end; coherence does not depend on it.
+    u_scale, y_scale = (_power_of_two_scale([r[k] for r in recs]) for k in (0, 1))
+    recs = [(u / u_scale, y / y_scale) for u, y in recs]
     w_out = np.asarray(log_frequencies(w_min, w_max, n_frequencies) if w is None else w, float)
     if w_out.ndim != 1 or np.any(np.diff(w_out) <= 0) or w_out[0] <= 0:
         raise ValueError("w must be positive and strictly increasing")
@@ -407,15 +421,21 @@ def composite_frequency_response(
         win_s = tw[np.argmax(wts, axis=0)]
     else:
         raise ValueError("combine must be 'min_error' or 'blend'")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        H = gxy / gxx
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        H = gxy / gxx * (y_scale / u_scale)
         coh = np.clip(np.abs(gxy) ** 2 / (gxx * gyy), 0.0, 1.0)
+    coh = np.where(np.isnan(coh), 0.0, coh)  # 0/0: a silent (constant) output or input
     coh = np.where(any_ok, coh, 0.0)
     H = np.where(any_ok, H, np.nan + 0j)
     nd = np.where(any_ok, nd, 0.0)
     win_s = np.where(any_ok, win_s, np.nan)
     err = random_error(coh, nd)
     mask = any_ok & (coh >= coherence_threshold) & np.isfinite(H)
+    if not mask.any() and (any_ok & (coh >= coherence_threshold)).any():
+        raise ValueError(
+            f"the gain |H| overflows float64: the output is about {y_scale:.3g} and the input "
+            f"about {u_scale:.3g} in size; rescale the columns (check their units)"
+        )
     if not mask.any():
         best_coh = float(np.max(coh)) if coh.size else 0.0
         raise ValueError(
