@@ -388,6 +388,19 @@ def test_empty_and_garbage_files(tmp_path):
         load_ardupilot(tmp_path / "missing.bin")
 
 
+def test_damaged_dataflash_is_read_around_and_reported(logs, tmp_path, capfd):
+    data = logs["exact"].read_bytes()
+    middle = len(data) // 8  # inside run 0
+    damaged = tmp_path / "damaged.bin"
+    damaged.write_bytes(data[:middle] + b"utter garbage" + data[middle:])
+    rec = load_ardupilot(damaged, run=0)
+    assert "pymavlink skipped damaged data" in rec.metadata["log_warning"]
+    assert "bad header" not in capfd.readouterr().err  # kept out of the terminal
+    clean = load_ardupilot(logs["exact"], run=0)
+    assert "log_warning" not in clean.metadata
+    np.testing.assert_array_equal(np.asarray(rec["p"]), np.asarray(clean["p"]))
+
+
 def test_truncated_dataflash_reads_what_is_there(logs, tmp_path):
     data = logs["exact"].read_bytes()
     cut = tmp_path / "cut.bin"

@@ -17,11 +17,14 @@ covers.  A gap between two logged samples longer than ``max_gap`` median periods
 default) is an error that names the message and the time: it is never interpolated over.
 Time steps that go backwards or repeat, and NaN or infinite values, are errors too.
 Linear interpolation does not low-pass: down-sampling a faster message aliases whatever it
-holds above the new Nyquist frequency; the usual case (input and output in one message,
-``RATE`` or ``SIDD``) keeps the logged samples as they are.
+holds above the new Nyquist frequency.  The defaults avoid that for ArduPilot (input and
+output from one message, ``RATE`` or ``SIDD``, so the grid is that message's own rate and
+only the logging jitter is interpolated away); PX4 topics logged at different rates are
+brought down to the slower one.
 
 The record's ``time`` is seconds since the autopilot booted (``TimeUS / 1e6`` for
-ArduPilot, ``timestamp / 1e6`` for PX4), so times match the log and the ground station.
+ArduPilot, the ULog ``timestamp``/``timestamp_sample`` / 1e6 for PX4), so times match the
+log and the ground station.
 Its metadata says where each column came from, the segment and the resampling.
 
 Everything wrong with a file is a :class:`~jaxgwo._data.FlightDataError` (a
@@ -40,6 +43,7 @@ import os
 import re
 import shutil
 import struct
+import sys
 import tempfile
 import zipfile
 from collections.abc import Mapping, Sequence
@@ -269,6 +273,7 @@ class _DataFlash(NamedTuple):
     present: dict[str, tuple[str, ...]]  # message type -> its fields, for types with data
     columns: dict[str, dict[str, np.ndarray]]  # message type -> field -> values
     units: dict[str, dict[str, str]]  # message type -> field -> unit the log declares, or ""
+    damage: str  # what pymavlink reported skipping, or ""
 
 
 def _import_dfreader():
@@ -375,6 +380,31 @@ _WHY_NEEDED = {
 }
 
 
+@contextlib.contextmanager
+def _native_stderr_to(sink: io.StringIO):
+    """Send what native code writes to file descriptor 2 into ``sink`` for the duration.
+
+    pymavlink's compiled indexer reports every bad byte of a damaged log there, one line
+    each, past ``sys.stderr``; the lines are kept (and summarised in the record's
+    metadata) instead of flooding the terminal.  Descriptor 2 is restored on exit.
+    """
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):  # no usable descriptor 2: leave it be
+        yield
+        return
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            sink.write(tmp.read().decode("utf-8", "replace"))
+
+
 def _dataflash_reader(DFReader):
     """``DFReader_binary`` without its search for a GPS time base.
 
@@ -402,10 +432,11 @@ def _read_dataflash(
     _file_size(p)
     where = str(p)
     reader = None
-    quiet = io.StringIO()  # DFReader prints notes about skipped bytes; they go nowhere
+    notes = io.StringIO()  # pymavlink's notes about damaged data, summarised in the metadata
     try:
-        with contextlib.redirect_stdout(quiet):
-            reader = _dataflash_reader(DFReader)(str(p), zero_time_base=True)
+        with contextlib.redirect_stdout(notes), contextlib.redirect_stderr(notes):
+            with _native_stderr_to(notes):
+                reader = _dataflash_reader(DFReader)(str(p), zero_time_base=True)
             present = {
                 name: tuple(reader.formats[type_id].columns)
                 for name, type_id in reader.name_to_id.items()
@@ -456,7 +487,9 @@ def _read_dataflash(
         if reader is not None:
             with contextlib.suppress(Exception):
                 reader.close()
-    return _DataFlash(present, columns, units)
+    lines = [line.strip() for line in notes.getvalue().splitlines() if line.strip()]
+    damage = f"pymavlink skipped damaged data ({len(lines)} notes; first: {lines[0]})" if lines else ""
+    return _DataFlash(present, columns, units, damage)
 
 
 def _sysid_runs(log: _DataFlash) -> list[SystemIdRun]:
@@ -670,6 +703,8 @@ def load_ardupilot(
         "resampling": how,
         "time": "seconds since autopilot boot (TimeUS / 1e6)",
     }
+    if log.damage:
+        metadata["log_warning"] = log.damage
     ordered = {c: values[c] for c in (*INPUT_NAMES, *OUTPUT_NAMES) if c in values}
     req = tuple(required) if required is not None else tuple(ordered)
     return make_record(grid, ordered, metadata, required=req)
