@@ -28,8 +28,21 @@ from collections.abc import Sequence
 DATAFLASH_HEAD = b"\xa3\x95"
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 
-_DF_STRUCT = {"Q": "Q", "q": "q", "B": "B", "b": "b", "f": "f", "d": "d", "I": "I", "i": "i",
-              "H": "H", "h": "h", "n": "4s", "N": "16s", "Z": "64s"}
+_DF_STRUCT = {
+    "Q": "Q",
+    "q": "q",
+    "B": "B",
+    "b": "b",
+    "f": "f",
+    "d": "d",
+    "I": "I",
+    "i": "i",
+    "H": "H",
+    "h": "h",
+    "n": "4s",
+    "N": "16s",
+    "Z": "64s",
+}
 
 # ArduPilot's own definitions (ArduCopter/Log.cpp, AC_AttitudeControl/LogStructure.h).
 SIDS = ("SIDS", "QBfffffff", "TimeUS,Ax,Mag,FSt,FSp,TFin,TC,TR,TFout")
@@ -52,8 +65,9 @@ class DataFlashWriter:
         type_id = self._next_type
         self._next_type += 1
         self._types[name] = (type_id, body, tuple(columns.split(",")))
-        fmt_body = struct.pack("<BB4s16s64s", type_id, 3 + body.size, name.encode(),
-                               fmt.encode(), columns.encode())
+        fmt_body = struct.pack(
+            "<BB4s16s64s", type_id, 3 + body.size, name.encode(), fmt.encode(), columns.encode()
+        )
         self._buf += DATAFLASH_HEAD + bytes([0x80]) + fmt_body
 
     def type_id(self, name: str) -> int:
@@ -107,7 +121,11 @@ class ULogWriter:
             codes.append(self._CODES[base] * n)
             names += [f] if not count else [f"{f}[{i}]" for i in range(n)]
         msg_id = len(self._topics)
-        self._topics[f"{name}/{multi_id}"] = (msg_id, struct.Struct("<" + "".join(codes)), tuple(names))
+        self._topics[f"{name}/{multi_id}"] = (
+            msg_id,
+            struct.Struct("<" + "".join(codes)),
+            tuple(names),
+        )
         self._data += self._message(b"A", struct.pack("<BH", multi_id, msg_id) + name.encode())
 
     def write(self, name: str, multi_id: int = 0, **values: float) -> None:
@@ -122,9 +140,15 @@ class ULogWriter:
 
 # PX4 topic layouts (msg/VehicleAngularVelocity.msg, VehicleTorqueSetpoint.msg,
 # ActuatorControls.msg before v1.14); pyulog names array elements "xyz[0]", ...
-ANGULAR_VELOCITY = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"),
-                    ("float[3]", "xyz"), ("float[3]", "xyz_derivative")]
-TORQUE_SETPOINT = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"),
-                   ("float[3]", "xyz")]
-ACTUATOR_CONTROLS = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"),
-                     ("float[8]", "control")]
+ANGULAR_VELOCITY = [
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "timestamp_sample"),
+    ("float[3]", "xyz"),
+    ("float[3]", "xyz_derivative"),
+]
+TORQUE_SETPOINT = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"), ("float[3]", "xyz")]
+ACTUATOR_CONTROLS = [
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "timestamp_sample"),
+    ("float[8]", "control"),
+]

@@ -15,9 +15,6 @@ import pytest
 pytest.importorskip("pymavlink")
 pytest.importorskip("pyulog")
 
-from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
-
 from _logwriters import (  # noqa: E402
     ACTUATOR_CONTROLS,
     ANGULAR_VELOCITY,
@@ -30,6 +27,9 @@ from _logwriters import (  # noqa: E402
     DataFlashWriter,
     ULogWriter,
 )
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
 from jaxgwo import FlightDataError, FlightRecord, load_record, make_record, save_record  # noqa: E402
 from jaxgwo._logs import (  # noqa: E402
     FORMATS,
@@ -120,12 +120,24 @@ def write_dataflash(
     loops = np.arange(int(round(span[0] * rate_hz)), int(round(span[1] * rate_hz)))
     pending = sorted(runs, key=lambda r: r["start"])
     for k in loops:
-        us = int(round(k * 1e6 / rate_hz)) + (int(rng.integers(-jitter_us, jitter_us + 1)) if jitter_us else 0)
+        us = int(round(k * 1e6 / rate_hz)) + (
+            int(rng.integers(-jitter_us, jitter_us + 1)) if jitter_us else 0
+        )
         t = us * 1e-6
         while pending and t >= pending[0]["start"]:
             r = pending.pop(0)
-            w.write("SIDS", TimeUS=us, Ax=r["axis"], Mag=0.1, FSt=0.5, FSp=10.0,
-                    TFin=r["TFin"], TC=r["TC"], TR=r["TR"], TFout=r["TFout"])
+            w.write(
+                "SIDS",
+                TimeUS=us,
+                Ax=r["axis"],
+                Mag=0.1,
+                FSt=0.5,
+                FSp=10.0,
+                TFin=r["TFin"],
+                TC=r["TC"],
+                TR=r["TR"],
+                TFout=r["TFout"],
+            )
         if with_rate and not (drop and drop[0] <= t < drop[1]):
             r_value = np.nan if nan_at is not None and abs(t - nan_at) < 0.5 / rate_hz else r_deg(t)
             values = dict(TimeUS=us, R=r_value, ROut=rout(t), P=p_deg(t), POut=pout(t))
@@ -153,14 +165,29 @@ def write_ulog(path: Path, *, old_firmware=False, span=(2.0, 8.0), rate_hz=250.0
         us = int(round(k * 1e6 / rate_hz))
         t = us * 1e-6
         if not (gap and gap[0] <= t < gap[1]):
-            u.write("vehicle_angular_velocity", timestamp=us + 300, timestamp_sample=us,
-                    xyz_0=r_deg(t) * DEG, xyz_1=p_deg(t) * DEG)
+            u.write(
+                "vehicle_angular_velocity",
+                timestamp=us + 300,
+                timestamp_sample=us,
+                xyz_0=r_deg(t) * DEG,
+                xyz_1=p_deg(t) * DEG,
+            )
         if old_firmware:
-            u.write("actuator_controls_0", timestamp=us, timestamp_sample=us,
-                    control_0=rout(t), control_1=pout(t))
+            u.write(
+                "actuator_controls_0",
+                timestamp=us,
+                timestamp_sample=us,
+                control_0=rout(t),
+                control_1=pout(t),
+            )
         else:
-            u.write("vehicle_torque_setpoint", timestamp=us, timestamp_sample=us,
-                    xyz_0=rout(t), xyz_1=pout(t))
+            u.write(
+                "vehicle_torque_setpoint",
+                timestamp=us,
+                timestamp_sample=us,
+                xyz_0=rout(t),
+                xyz_1=pout(t),
+            )
     path.write_bytes(u.to_bytes())
     return path
 
@@ -196,9 +223,12 @@ def test_mixer_round_trip_within_interpolation_error(logs):
     np.testing.assert_allclose(np.diff(t), 1.0 / rec.sample_rate, rtol=1e-9)
     assert t[0] == pytest.approx(3.0, abs=0.006) and t[-1] == pytest.approx(9.5, abs=0.006)
     h = 0.005 + 2 * 0.0004  # the longest logged step
-    truths = {"delta_lat": (rout, 0.1 * TAU * 1.1), "delta_lon": (pout, 0.08 * TAU * 0.9),
-              "p": (lambda s: r_deg(s) * DEG, 30 * DEG * TAU * 0.7),
-              "q": (lambda s: p_deg(s) * DEG, 25 * DEG * TAU * 0.5)}
+    truths = {
+        "delta_lat": (rout, 0.1 * TAU * 1.1),
+        "delta_lon": (pout, 0.08 * TAU * 0.9),
+        "p": (lambda s: r_deg(s) * DEG, 30 * DEG * TAU * 0.7),
+        "q": (lambda s: p_deg(s) * DEG, 25 * DEG * TAU * 0.5),
+    }
     for column, (truth, max_slope) in truths.items():
         err = np.max(np.abs(np.asarray(rec[column]) - truth(t)))
         # linear interpolation error h^2/8 max|f''|, plus the logged times rounded to
@@ -215,13 +245,19 @@ def test_exact_grid_keeps_logged_samples_and_converts_deg_to_rad(logs):
     assert t[0] == pytest.approx(3.0, abs=1e-9) and t[-1] == pytest.approx(9.5, abs=1e-9)
     # no jitter: the grid is the logged times, so values are the float32 samples exactly
     np.testing.assert_allclose(np.asarray(rec["delta_lat"]), f32(rout(t)), rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(rec["p"]), f32(r_deg(t)).astype(float) * DEG, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(rec["q"]), f32(p_deg(t)).astype(float) * DEG, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        np.asarray(rec["p"]), f32(r_deg(t)).astype(float) * DEG, rtol=1e-9, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        np.asarray(rec["q"]), f32(p_deg(t)).astype(float) * DEG, rtol=1e-9, atol=1e-12
+    )
     # SIDD.Gx/Gy are deg/s too
     sidd = load_ardupilot(logs["exact"], run=0, output="sidd")
     ts = np.asarray(sidd.time)
     # SIDD is stamped 20 us after the loop it samples
-    np.testing.assert_allclose(np.asarray(sidd["p"]), f32(gx_deg(ts - 20e-6)).astype(float) * DEG, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        np.asarray(sidd["p"]), f32(gx_deg(ts - 20e-6)).astype(float) * DEG, rtol=1e-9, atol=1e-12
+    )
     assert "SIDD.Gx -> p" in sidd.metadata["output"]
     assert "deg/s converted to rad/s" in sidd.metadata["output"]
 
@@ -245,7 +281,9 @@ def test_sids_segments(logs):
     # the pilot left the mode: last SIDD at 20.99 s (+20 us), the RATE sample before it
     assert float(run1.time[-1]) == pytest.approx(20.99, abs=0.006)
     assert "run 1" in run1.metadata["segment"]
-    with pytest.raises(FlightDataError, match=r"2 system-ID runs.*run 0: SID_AXIS 10.*run 1: SID_AXIS 11"):
+    with pytest.raises(
+        FlightDataError, match=r"2 system-ID runs.*run 0: SID_AXIS 10.*run 1: SID_AXIS 11"
+    ):
         load_ardupilot(logs["exact"])
     with pytest.raises(FlightDataError, match="no system-ID run 5"):
         load_ardupilot(logs["exact"], run=5)
@@ -262,7 +300,9 @@ def test_ardupilot_runs_lists_what_run_indexes(logs, tmp_path):
     runs = ardupilot_runs(logs["exact"])
     assert [type(r) for r in runs] == [SystemIdRun, SystemIdRun]
     assert [(r.index, r.axis, r.axis_name, r.channel) for r in runs] == [
-        (0, 10, "Mixer Roll", "lateral"), (1, 11, "Mixer Pitch", "longitudinal")]
+        (0, 10, "Mixer Roll", "lateral"),
+        (1, 11, "Mixer Pitch", "longitudinal"),
+    ]
     assert runs[0].start_s == pytest.approx(3.0) and runs[0].stop_s == pytest.approx(9.5)
     assert runs[1].start_s == pytest.approx(16.0) and runs[1].stop_s == pytest.approx(20.99 + 20e-6)
     assert ardupilot_runs(write_dataflash(tmp_path / "none.bin", runs=())) == []
@@ -270,7 +310,9 @@ def test_ardupilot_runs_lists_what_run_indexes(logs, tmp_path):
 
 def test_no_sids_needs_a_window(tmp_path):
     path = write_dataflash(tmp_path / "nosids.bin", runs=())
-    with pytest.raises(FlightDataError, match=r"no SIDS messages .*pass window=.*messages present: RATE"):
+    with pytest.raises(
+        FlightDataError, match=r"no SIDS messages .*pass window=.*messages present: RATE"
+    ):
         load_ardupilot(path)
     rec = load_ardupilot(path, window=(5.0, 6.0))
     assert rec.n_samples == 201
@@ -292,13 +334,19 @@ def test_targ_versus_mixer_input(logs):
 
     pitch = load_ardupilot(logs["exact"], run=1, input="targ")
     assert pitch.columns == ("time", "delta_lon", "q")
+    with pytest.raises(
+        FlightDataError, match=r"exact.bin: missing column delta_lat; .* input='mixer' gives both"
+    ):
+        load_ardupilot(logs["exact"], run=1, input="targ", required=("delta_lat", "p"))
 
     # input from SIDD, output from RATE: the grid takes the slower, SIDD's 100 Hz
     mixed = load_ardupilot(logs["exact"], run=0, input="targ", output="rate")
     assert mixed.sample_rate == pytest.approx(100.0, rel=1e-6)
     assert "median logged rate of SIDD" in mixed.metadata["resampling"]
     tm = np.asarray(mixed.time)
-    np.testing.assert_allclose(np.asarray(mixed["p"]), r_deg(tm) * DEG, atol=interpolation_bound(0.005, "p"))
+    np.testing.assert_allclose(
+        np.asarray(mixed["p"]), r_deg(tm) * DEG, atol=interpolation_bound(0.005, "p")
+    )
 
 
 def test_targ_axis_rules(tmp_path, logs):
@@ -316,11 +364,15 @@ def test_targ_axis_rules(tmp_path, logs):
 
 def test_missing_message_and_field_are_named(tmp_path):
     no_rate = write_dataflash(tmp_path / "norate.bin", with_rate=False)
-    with pytest.raises(FlightDataError, match=r"no RATE messages in the log .*; messages present: SIDD, SIDS"):
+    with pytest.raises(
+        FlightDataError, match=r"no RATE messages in the log .*; messages present: SIDD, SIDS"
+    ):
         load_ardupilot(no_rate, run=0)
     old = ("RATE", "Qffffff", "TimeUS,RDes,R,PDes,P,YDes,Y")  # no mixer outputs logged
     path = write_dataflash(tmp_path / "old.bin", rate_format=old)
-    with pytest.raises(FlightDataError, match=r"RATE has no field ROut, POut; its fields are: TimeUS, RDes, R,"):
+    with pytest.raises(
+        FlightDataError, match=r"RATE has no field ROut, POut; its fields are: TimeUS, RDes, R,"
+    ):
         load_ardupilot(path, run=0)
     rec = load_ardupilot(path, run=0, input="targ")  # the SIDD input needs no RATE.ROut
     assert rec.columns == ("time", "delta_lat", "p")
@@ -349,7 +401,9 @@ def test_nan_and_backwards_time_are_errors(tmp_path):
         load_ardupilot(back, window=(0.0, 1.0))
 
 
-@pytest.mark.parametrize("unit_id, label, scale", [("k", "deg/s", DEG), ("E", "rad/s", 1.0), ("d", "deg", None)])
+@pytest.mark.parametrize(
+    "unit_id, label, scale", [("k", "deg/s", DEG), ("E", "rad/s", 1.0), ("d", "deg", None)]
+)
 def test_units_the_log_declares(tmp_path, unit_id, label, scale):
     """UNIT/FMTU messages give RATE.R its unit: deg/s is converted, rad/s kept, others refused."""
     w = DataFlashWriter()
@@ -357,19 +411,34 @@ def test_units_the_log_declares(tmp_path, unit_id, label, scale):
         w.define(*d)
     for uid, text in (("s", "s"), ("-", ""), (unit_id, label)):
         w.write("UNIT", Id=ord(uid), Label=text.encode())
-    w.write("FMTU", FmtType=w.type_id("RATE"), UnitIds=f"s{unit_id}{unit_id}-{unit_id}{unit_id}-".encode(),
-            MultIds=b"F000000")
+    w.write(
+        "FMTU",
+        FmtType=w.type_id("RATE"),
+        UnitIds=f"s{unit_id}{unit_id}-{unit_id}{unit_id}-".encode(),
+        MultIds=b"F000000",
+    )
     t = np.arange(101) / 100.0
     for ti in t:
-        w.write("RATE", TimeUS=int(round(ti * 1e6)), R=r_deg(ti), P=p_deg(ti), ROut=rout(ti), POut=pout(ti))
+        w.write(
+            "RATE",
+            TimeUS=int(round(ti * 1e6)),
+            R=r_deg(ti),
+            P=p_deg(ti),
+            ROut=rout(ti),
+            POut=pout(ti),
+        )
     path = tmp_path / "units.bin"
     path.write_bytes(w.to_bytes())
     if scale is None:
-        with pytest.raises(FlightDataError, match=r"RATE.R is logged in 'deg'; an angular rate in deg/s or rad/s"):
+        with pytest.raises(
+            FlightDataError, match=r"RATE.R is logged in 'deg'; an angular rate in deg/s or rad/s"
+        ):
             load_ardupilot(path, window=(0.0, 1.0))
         return
     rec = load_ardupilot(path, window=(0.0, 1.0))
-    np.testing.assert_allclose(np.asarray(rec["p"]), f32(r_deg(t)).astype(float) * scale, rtol=1e-12)
+    np.testing.assert_allclose(
+        np.asarray(rec["p"]), f32(r_deg(t)).astype(float) * scale, rtol=1e-12
+    )
     assert ("deg/s converted" if scale != 1.0 else "rad/s as logged") in rec.metadata["output"]
 
 
@@ -421,7 +490,9 @@ def test_px4_round_trip(logs):
     t = np.asarray(rec.time)
     assert t[0] == pytest.approx(2.0) and t[-1] == pytest.approx(8.0 - 0.004)
     np.testing.assert_allclose(np.asarray(rec["delta_lat"]), f32(rout(t)), atol=1e-7)
-    np.testing.assert_allclose(np.asarray(rec["p"]), f32(r_deg(t) * DEG), atol=1e-6)  # rad/s as logged
+    np.testing.assert_allclose(
+        np.asarray(rec["p"]), f32(r_deg(t) * DEG), atol=1e-6
+    )  # rad/s as logged
     np.testing.assert_allclose(np.asarray(rec["q"]), f32(p_deg(t) * DEG), atol=1e-6)
     meta = rec.metadata
     assert meta["input"].startswith("vehicle_torque_setpoint.xyz[0] -> delta_lat")
@@ -436,8 +507,11 @@ def test_px4_old_firmware_actuator_controls(tmp_path):
     assert rec.metadata["input"].startswith("actuator_controls_0.control[0] -> delta_lat")
     t = np.asarray(rec.time)
     np.testing.assert_allclose(np.asarray(rec["delta_lon"]), f32(pout(t)), atol=1e-7)
-    with pytest.raises(FlightDataError, match=r"no vehicle_torque_setpoint topic.*topics present: "
-                       r"actuator_controls_0, vehicle_angular_velocity"):
+    with pytest.raises(
+        FlightDataError,
+        match=r"no vehicle_torque_setpoint topic.*topics present: "
+        r"actuator_controls_0, vehicle_angular_velocity",
+    ):
         load_px4(path, input="torque_setpoint")
 
 
@@ -450,11 +524,16 @@ def test_px4_missing_field_and_gap(tmp_path):
         u.write("vehicle_torque_setpoint", timestamp=1000 * k)
     path = tmp_path / "odd.ulg"
     path.write_bytes(u.to_bytes())
-    with pytest.raises(FlightDataError, match=r"vehicle_angular_velocity has no field xyz\[0\], xyz\[1\]; "
-                       r"its fields are: timestamp, rates\[0\]"):
+    with pytest.raises(
+        FlightDataError,
+        match=r"vehicle_angular_velocity has no field xyz\[0\], xyz\[1\]; "
+        r"its fields are: timestamp, rates\[0\]",
+    ):
         load_px4(path)
     gap = write_ulog(tmp_path / "gap.ulg", gap=(4.0, 4.1))
-    with pytest.raises(FlightDataError, match=r"vehicle_angular_velocity has a gap .* t = 3.996000 s"):
+    with pytest.raises(
+        FlightDataError, match=r"vehicle_angular_velocity has a gap .* t = 3.996000 s"
+    ):
         load_px4(gap)
 
 
@@ -511,14 +590,21 @@ def test_load_any_dispatch(logs, tmp_path):
 
 
 def test_load_any_errors(logs, tmp_path):
-    with pytest.raises(ValueError, match="unknown format 'tlog'; expected one of auto, csv, npz, ardupilot, px4"):
+    with pytest.raises(
+        ValueError, match="unknown format 'tlog'; expected one of auto, csv, npz, ardupilot, px4"
+    ):
         load_any(logs["exact"], format="tlog")
     weird = tmp_path / "notes.txt"
     weird.write_bytes(b"\x00\x01 nothing to see")
-    with pytest.raises(FlightDataError, match=r"extension '\.txt'.*csv \(\.csv\), npz \(\.npz\), "
-                       r"ardupilot \(\.bin\), px4 \(\.ulg\)"):
+    with pytest.raises(
+        FlightDataError,
+        match=r"extension '\.txt'.*csv \(\.csv\), npz \(\.npz\), "
+        r"ardupilot \(\.bin\), px4 \(\.ulg\)",
+    ):
         load_any(weird)
-    with pytest.raises(ValueError, match=r"option\(s\) run do not apply to format 'px4'; it takes: input, window"):
+    with pytest.raises(
+        ValueError, match=r"option\(s\) run do not apply to format 'px4'; it takes: input, window"
+    ):
         load_any(logs["ulog"], run=0)
     with pytest.raises(ValueError, match="input must be one of 'mixer', 'targ'"):
         load_any(logs["exact"], input="sticks")
@@ -569,13 +655,21 @@ def _load_or_flight_data_error(fuzz_dir: Path, data: bytes, suffix: str) -> None
 @given(data=st.binary(max_size=600), suffix=st.sampled_from([".bin", ".ulg", ".csv", ".npz"]))
 def test_garbage_bytes_only_raise_flight_data_error(fuzz_dir, data, suffix):
     # each starts with its format's magic bytes, so the parser gets past the first check
-    magic = {".bin": b"\xa3\x95\x80", ".ulg": b"ULog\x01\x12\x35\x01", ".csv": b"", ".npz": b"PK\x03\x04"}
+    magic = {
+        ".bin": b"\xa3\x95\x80",
+        ".ulg": b"ULog\x01\x12\x35\x01",
+        ".csv": b"",
+        ".npz": b"PK\x03\x04",
+    }
     _load_or_flight_data_error(fuzz_dir, magic[suffix] + data, suffix)
 
 
 @_FUZZ
-@given(cut=st.floats(0.0, 1.0), flips=st.lists(st.tuples(st.floats(0.0, 1.0), st.integers(1, 255)), max_size=4),
-       suffix=st.sampled_from([".bin", ".ulg"]))
+@given(
+    cut=st.floats(0.0, 1.0),
+    flips=st.lists(st.tuples(st.floats(0.0, 1.0), st.integers(1, 255)), max_size=4),
+    suffix=st.sampled_from([".bin", ".ulg"]),
+)
 def test_truncated_or_corrupted_logs_only_raise_flight_data_error(fuzz_dir, cut, flips, suffix):
     data = bytearray((fuzz_dir / f"small{suffix}").read_bytes())
     for where, xor in flips:
@@ -589,8 +683,11 @@ def test_fast_decoding_matches_pymavlink_message_by_message(logs, tmp_path, monk
     data[len(data) // 3] ^= 0x5A  # damage one byte: both must skip the same message
     damaged = tmp_path / "damaged.bin"
     damaged.write_bytes(bytes(data[:-5]))  # and end inside a message
-    for path, options in ((logs["jitter"], {"run": 0}), (logs["exact"], {"run": 1, "input": "targ"}),
-                          (damaged, {"window": (2.0, 29.0), "max_gap": 10})):
+    for path, options in (
+        (logs["jitter"], {"run": 0}),
+        (logs["exact"], {"run": 1, "input": "targ"}),
+        (damaged, {"window": (2.0, 29.0), "max_gap": 10}),
+    ):
         fast = load_ardupilot(path, **options)
         monkeypatch.setattr("jaxgwo._logs._FAST_DECODE", False)
         slow = load_ardupilot(path, **options)

@@ -75,19 +75,48 @@ _DEG = math.pi / 180.0
 # ArduCopter's SID_AXIS values (ArduCopter/mode_systemid.cpp, 4.x): which of them excite
 # roll (lateral cyclic) and which pitch (longitudinal cyclic).
 SID_AXES: dict[int, str] = {
-    1: "Input Roll Angle", 2: "Input Pitch Angle", 3: "Input Yaw Angle",
-    4: "Recovery Roll Angle", 5: "Recovery Pitch Angle", 6: "Recovery Yaw Angle",
-    7: "Rate Roll", 8: "Rate Pitch", 9: "Rate Yaw",
-    10: "Mixer Roll", 11: "Mixer Pitch", 12: "Mixer Yaw", 13: "Mixer Thrust",
+    1: "Input Roll Angle",
+    2: "Input Pitch Angle",
+    3: "Input Yaw Angle",
+    4: "Recovery Roll Angle",
+    5: "Recovery Pitch Angle",
+    6: "Recovery Yaw Angle",
+    7: "Rate Roll",
+    8: "Rate Pitch",
+    9: "Rate Yaw",
+    10: "Mixer Roll",
+    11: "Mixer Pitch",
+    12: "Mixer Yaw",
+    13: "Mixer Thrust",
 }
 """``SIDS.Ax`` (``SID_AXIS``) -> name, as in ArduCopter's parameter documentation."""
 
-_AXIS_CHANNEL = {1: "lateral", 4: "lateral", 7: "lateral", 10: "lateral",
-                 2: "longitudinal", 5: "longitudinal", 8: "longitudinal", 11: "longitudinal"}
+_AXIS_CHANNEL = {
+    1: "lateral",
+    4: "lateral",
+    7: "lateral",
+    10: "lateral",
+    2: "longitudinal",
+    5: "longitudinal",
+    8: "longitudinal",
+    11: "longitudinal",
+}
 # Units of SIDD.Targ by axis (SID_MAGNITUDE: "deg, deg/s and 0-1 for mixer outputs").
-_TARG_UNITS = {1: "deg", 2: "deg", 3: "deg/s", 4: "deg", 5: "deg", 6: "deg/s",
-               7: "deg/s", 8: "deg/s", 9: "deg/s", 10: "normalised", 11: "normalised",
-               12: "normalised", 13: "normalised"}
+_TARG_UNITS = {
+    1: "deg",
+    2: "deg",
+    3: "deg/s",
+    4: "deg",
+    5: "deg",
+    6: "deg/s",
+    7: "deg/s",
+    8: "deg/s",
+    9: "deg/s",
+    10: "normalised",
+    11: "normalised",
+    12: "normalised",
+    13: "normalised",
+}
 
 # ArduCopter waits this long after entering System ID mode before the chirp starts
 # (SYSTEM_ID_DELAY in mode_systemid.cpp); the mode's test ends at
@@ -195,6 +224,20 @@ def _resample(
     return grid, out, how
 
 
+def _record(grid, columns, metadata, required, where: str, hint: str) -> FlightRecord:
+    """:func:`make_record`, with its errors naming the log file instead of "record"."""
+    try:
+        return make_record(grid, columns, metadata, required=required)
+    except FlightDataError as err:
+        text = str(err)
+        text = (
+            f"{where}:{text[len('record:') :]}"
+            if text.startswith("record:")
+            else f"{where}: {text}"
+        )
+        raise FlightDataError(text + hint) from None
+
+
 def _window(window: Sequence[float] | None) -> tuple[float, float] | None:
     if window is None:
         return None
@@ -289,11 +332,24 @@ def _import_dfreader():
 _FAST_DECODE = True  # tests switch it off to compare against pymavlink's own decoding
 
 # struct codes of DataFlash fields (pymavlink FORMAT_TO_STRUCT) as NumPy dtypes
-_NUMPY_CODES = {"b": "i1", "B": "u1", "h": "i2", "H": "u2", "i": "i4", "I": "u4",
-                "q": "i8", "Q": "u8", "e": "f2", "f": "f4", "d": "f8"}
+_NUMPY_CODES = {
+    "b": "i1",
+    "B": "u1",
+    "h": "i2",
+    "H": "u2",
+    "i": "i4",
+    "I": "u4",
+    "q": "i8",
+    "Q": "u8",
+    "e": "f2",
+    "f": "f4",
+    "d": "f8",
+}
 
 
-def _decode_dataflash(data: bytes, offsets, fmt, fields: Sequence[str]) -> dict[str, np.ndarray] | None:
+def _decode_dataflash(
+    data: bytes, offsets, fmt, fields: Sequence[str]
+) -> dict[str, np.ndarray] | None:
     """Decode ``fields`` of every message of one type at once with NumPy.
 
     ``offsets`` are where pymavlink's index found the messages, ``fmt`` its ``DFFormat``
@@ -321,7 +377,7 @@ def _decode_dataflash(data: bytes, offsets, fmt, fields: Sequence[str]) -> dict[
     raw = np.frombuffer(data, dtype=np.uint8)
     records = raw[starts[:, None] + np.arange(dtype.itemsize)].view(dtype).reshape(-1)
     out = {}
-    for name, i in zip(fields, index):
+    for name, i in zip(fields, index, strict=True):
         values = records[f"f{i}"].astype(np.float64)
         mult = fmt.msg_mults[i]
         if mult is not None:  # as DFMessage: divide by 1/mult for the decimal multipliers
@@ -356,7 +412,9 @@ def _rate_scale(log: _DataFlash, message: str, field: str, where: str) -> tuple[
     )
 
 
-def _collect_dataflash(reader, wanted: Mapping[str, Sequence[str]]) -> dict[str, dict[str, np.ndarray]]:
+def _collect_dataflash(
+    reader, wanted: Mapping[str, Sequence[str]]
+) -> dict[str, dict[str, np.ndarray]]:
     """The same through pymavlink's ``recv_match``, one message at a time."""
     rows: dict[str, list[tuple[float, ...]]] = {name: [] for name in wanted}
     while True:
@@ -448,7 +506,7 @@ def _read_dataflash(
                     f"the bytes 0xA3 0x95 and FMT messages; this file "
                     f"{'does' if _head(p, 2) == _DATAFLASH_MAGIC else 'does not'}"
                 )
-            for name, fields in needed.items():
+            for name in needed:
                 if name not in present:
                     raise FlightDataError(
                         f"{where}: no {name} messages in the log{_WHY_NEEDED.get(name, '')}; "
@@ -468,15 +526,22 @@ def _read_dataflash(
                 for name in wanted:
                     type_id = reader.name_to_id[name]
                     decoded = _decode_dataflash(
-                        data, reader.offsets[type_id], reader.formats[type_id], ("TimeUS", *wanted[name])
+                        data,
+                        reader.offsets[type_id],
+                        reader.formats[type_id],
+                        ("TimeUS", *wanted[name]),
                     )
                     if decoded is not None:
                         columns[name] = decoded
             slow = {name: wanted[name] for name in wanted if name not in columns}
             if slow:
                 columns.update(_collect_dataflash(reader, slow))
-            units = {name: {f: _declared_unit(reader.formats[reader.name_to_id[name]], f)
-                            for f in fields} for name, fields in wanted.items()}
+            units = {
+                name: {
+                    f: _declared_unit(reader.formats[reader.name_to_id[name]], f) for f in fields
+                }
+                for name, fields in wanted.items()
+            }
     except (FlightDataError, ImportError):
         raise
     except Exception as err:  # pymavlink raises anything on a damaged file
@@ -488,7 +553,9 @@ def _read_dataflash(
             with contextlib.suppress(Exception):
                 reader.close()
     lines = [line.strip() for line in notes.getvalue().splitlines() if line.strip()]
-    damage = f"pymavlink skipped damaged data ({len(lines)} notes; first: {lines[0]})" if lines else ""
+    damage = (
+        f"pymavlink skipped damaged data ({len(lines)} notes; first: {lines[0]})" if lines else ""
+    )
     return _DataFlash(present, columns, units, damage)
 
 
@@ -543,7 +610,9 @@ def _pick_run(
     if len(candidates) == 1:
         return candidates[0]
     if not candidates:
-        raise FlightDataError(f"{where}: no system-ID run on the {channel} channel; the log holds {listing}")
+        raise FlightDataError(
+            f"{where}: no system-ID run on the {channel} channel; the log holds {listing}"
+        )
     raise FlightDataError(
         f"{where}: the log holds {len(candidates)} system-ID runs"
         f"{'' if channel is None else ' on the ' + channel + ' channel'}; choose one with "
@@ -684,7 +753,9 @@ def load_ardupilot(
         pairs = [CHANNELS[targ_channel]]
 
     out_columns = [out for _, out in pairs]
-    src, names = {"rate": ("RATE", {"p": "R", "q": "P"}), "sidd": ("SIDD", {"p": "Gx", "q": "Gy"})}[output]
+    src, names = {"rate": ("RATE", {"p": "R", "q": "P"}), "sidd": ("SIDD", {"p": "Gx", "q": "Gy"})}[
+        output
+    ]
     out_text = []
     for col in out_columns:
         scale, done = _rate_scale(log, src, names[col], where)
@@ -692,7 +763,12 @@ def load_ardupilot(
         out_text.append(f"{src}.{names[col]} -> {col} ({done})")
 
     grid, values, how = _resample(
-        fields, start_s=start_s, stop_s=stop_s, sample_rate=sample_rate, max_gap=max_gap, where=where
+        fields,
+        start_s=start_s,
+        stop_s=stop_s,
+        sample_rate=sample_rate,
+        max_gap=max_gap,
+        where=where,
     )
     metadata = {
         "source": f"ArduPilot DataFlash log {p.name}",
@@ -707,7 +783,12 @@ def load_ardupilot(
         metadata["log_warning"] = log.damage
     ordered = {c: values[c] for c in (*INPUT_NAMES, *OUTPUT_NAMES) if c in values}
     req = tuple(required) if required is not None else tuple(ordered)
-    return make_record(grid, ordered, metadata, required=req)
+    hint = (
+        " (input='targ' gives the excited channel only; input='mixer' gives both)"
+        if input == "targ"
+        else ""
+    )
+    return _record(grid, ordered, metadata, req, where, hint)
 
 
 # -- PX4 ULog -----------------------------------------------------------------------------
@@ -715,7 +796,10 @@ def load_ardupilot(
 _PX4_OUTPUT = ("vehicle_angular_velocity", {"p": "xyz[0]", "q": "xyz[1]"})
 _PX4_INPUTS = {
     "torque_setpoint": ("vehicle_torque_setpoint", {"delta_lat": "xyz[0]", "delta_lon": "xyz[1]"}),
-    "actuator_controls": ("actuator_controls_0", {"delta_lat": "control[0]", "delta_lon": "control[1]"}),
+    "actuator_controls": (
+        "actuator_controls_0",
+        {"delta_lat": "control[0]", "delta_lon": "control[1]"},
+    ),
 }
 
 
@@ -838,7 +922,12 @@ def load_px4(
         start_s, stop_s = span
         segment = f"window {start_s:.6g}-{stop_s:.6g} s since boot"
     grid, values, how = _resample(
-        fields, start_s=start_s, stop_s=stop_s, sample_rate=sample_rate, max_gap=max_gap, where=where
+        fields,
+        start_s=start_s,
+        stop_s=stop_s,
+        sample_rate=sample_rate,
+        max_gap=max_gap,
+        where=where,
     )
     in_topic, in_map = _PX4_INPUTS[chosen]
     metadata = {
@@ -857,7 +946,7 @@ def load_px4(
         metadata["log_warning"] = "pyulog found corruption in the file and skipped over it"
     ordered = {c: values[c] for c in (*INPUT_NAMES, *OUTPUT_NAMES)}
     req = tuple(required) if required is not None else INPUT_NAMES + OUTPUT_NAMES
-    return make_record(grid, ordered, metadata, required=req)
+    return _record(grid, ordered, metadata, req, where, "")
 
 
 # -- the dispatcher -----------------------------------------------------------------------
@@ -922,7 +1011,9 @@ def _load_table(p: Path, fmt: str, required: Sequence[str] | None, columns) -> F
     except (OSError, zipfile.BadZipFile, EOFError, UnicodeDecodeError) as err:
         if isinstance(err, FileNotFoundError):
             raise
-        raise FlightDataError(f"{p}: not a readable {fmt} file ({type(err).__name__}: {err})") from None
+        raise FlightDataError(
+            f"{p}: not a readable {fmt} file ({type(err).__name__}: {err})"
+        ) from None
 
 
 _LOADERS = {"ardupilot": load_ardupilot, "px4": load_px4}
