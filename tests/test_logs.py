@@ -105,6 +105,7 @@ def write_dataflash(
     drop=None,
     nan_at=None,
     rate_format=RATE,
+    sids_format=SIDS,
     with_rate=True,
     seed=0,
 ) -> Path:
@@ -113,7 +114,7 @@ def write_dataflash(
     ``nan_at`` writes one NaN roll rate."""
     rng = np.random.default_rng(seed)
     w = DataFlashWriter()
-    for d in (SIDS, SIDD):
+    for d in (sids_format, SIDD):
         w.define(*d)
     if with_rate:
         w.define(*rate_format)
@@ -375,6 +376,12 @@ def test_missing_message_and_field_are_named(tmp_path):
     ):
         load_ardupilot(path, run=0)
     rec = load_ardupilot(path, run=0, input="targ")  # the SIDD input needs no RATE.ROut
+    assert rec.columns == ("time", "delta_lat", "p")
+    odd_sids = ("SIDS", "QBff", "TimeUS,Ax,Mag,FSt")  # SIDS without the run timing fields
+    path = write_dataflash(tmp_path / "odd_sids.bin", sids_format=odd_sids)
+    with pytest.raises(FlightDataError, match=r"message SIDS has no field TFin, TC, TR, TFout"):
+        load_ardupilot(path, run=0)
+    rec = load_ardupilot(path, window=(4.0, 5.0), input="targ", channel="lateral")
     assert rec.columns == ("time", "delta_lat", "p")
 
 

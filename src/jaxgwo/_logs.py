@@ -512,7 +512,13 @@ def _read_dataflash(
                         f"{where}: no {name} messages in the log{_WHY_NEEDED.get(name, '')}; "
                         f"messages present: {_listing(list(present))}"
                     )
-            wanted = {**{k: v for k, v in optional.items() if k in present}, **needed}
+            # an optional message with other fields (another firmware) is left out, not an error
+            usable = {
+                k: v
+                for k, v in optional.items()
+                if k in present and all(f in present[k] for f in ("TimeUS", *v))
+            }
+            wanted = {**usable, **needed}
             for name, fields in wanted.items():
                 missing = [f for f in ("TimeUS", *fields) if f not in present[name]]
                 if missing:
