@@ -43,6 +43,18 @@ def test_line_on_a_terminal_with_rate_and_eta():
     assert len(frames[3].rstrip("\n")) >= len(frames[2])
 
 
+def test_stages_without_eta():
+    out, clock = FakeTTY(), Clock()
+    with Progress(3, "identify", "stages", stream=out, clock=clock, eta=False) as bar:
+        bar.update(0, "lateral: frequency response")
+        clock.t += 2.0
+        bar.update(1, "optimising")
+    frames = out.getvalue().split("\r")[1:]
+    assert frames[2].rstrip() == ("identify [##########....................] 1/3 stages  "
+                                  "elapsed 0:02  optimising")
+    assert "ETA" not in out.getvalue() and "/s" not in out.getvalue()
+
+
 @pytest.mark.parametrize("stream, quiet", [(io.StringIO(), False), (FakeTTY(), True)])
 def test_silent_on_a_pipe_or_when_quiet(stream, quiet):
     with Progress(5, "x", stream=stream, quiet=quiet) as bar:

@@ -164,7 +164,7 @@ def test_diagnosis_report_ranking_and_verdict(tmp_path, monkeypatch):
     assert "no off-axis &lt;input&gt;" in text
     nominal, where, ranking = p.tables
     assert ["K", "200"] in nominal and ["validation R²", "0.5000"] in nominal
-    assert ["bands hz", "1–3, 5–6.5"] in where and ["residual white", "no"] in where
+    assert ["bands (Hz)", "1–3, 5–6.5"] in where and ["residual white", "no"] in where
     assert ranking[0][:5] == ["rank", "effect", "parameters", "validation R²", "gap closed"]
     assert ranking[1][:2] == ["1", "time_delay"] and ranking[1][-1] == "yes"
     assert ranking[1][2] == "delay_s = 0.031 ± 0.002"

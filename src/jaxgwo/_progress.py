@@ -37,12 +37,13 @@ class Progress:
     update, so the first unit (usually compilation) is not spread over the others:
     until a second update the ETA reads ``?``.  Use as a context manager, or call
     :meth:`close` to end the line.  ``enabled`` defaults to ``stream.isatty() and not
-    quiet``; a disabled progress writes nothing.
+    quiet``; a disabled progress writes nothing.  ``eta=False`` drops the rate and ETA,
+    for units of very different lengths (identification stages).
     """
 
     def __init__(self, total: int, label: str = "", unit: str = "", *,
                  stream: TextIO | None = None, quiet: bool = False,
-                 enabled: bool | None = None, width: int = 30,
+                 enabled: bool | None = None, width: int = 30, eta: bool = True,
                  clock=time.perf_counter):
         self.total = max(0, int(total))
         self.label = label
@@ -53,6 +54,7 @@ class Progress:
             enabled = bool(isatty and isatty()) and not quiet
         self.enabled = enabled
         self.width = width
+        self.eta = eta
         self.done = 0
         self._clock = clock
         self._t0 = clock()
@@ -86,7 +88,7 @@ class Progress:
         unit = f" {self.unit}" if self.unit else ""
         parts = [f"{self.label} [{bar}] {self.done}/{self.total}{unit}".lstrip()]
         rate = None
-        if self._first is not None:
+        if self.eta and self._first is not None:
             t1, n1 = self._first
             if self.done > n1 and now > t1:
                 rate = (self.done - n1) / (now - t1)
@@ -94,7 +96,7 @@ class Progress:
             per = f"{self.unit}/s" if self.unit else "/s"
             parts.append(f"{rate:.3g} {per}")
             parts.append(f"ETA {format_duration((self.total - self.done) / rate)}")
-        elif self.done < self.total:
+        elif self.eta and self.done < self.total:
             parts.append("ETA ?")
         parts.append(f"elapsed {format_duration(now - self._t0)}")
         if note:

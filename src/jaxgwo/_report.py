@@ -69,6 +69,14 @@ def _fmt(x, spec: str = ".4g") -> str:
     return _e(format(int(v), spec) if spec.endswith("d") else format(v, spec))
 
 
+def _label(key: str) -> str:
+    """``bands_hz`` -> ``bands (Hz)``, ``peak_lag_s`` -> ``peak lag (s)``."""
+    for suffix, unit in (("_hz", "Hz"), ("_s", "s")):
+        if key.endswith(suffix):
+            return f"{key[:-len(suffix)].replace('_', ' ')} ({unit})"
+    return key.replace("_", " ")
+
+
 def _cell(v) -> str:
     """A JSON value as table-cell HTML: frequency bands ``[[lo, hi], ...]`` as ranges."""
     if isinstance(v, list):
@@ -243,8 +251,8 @@ def diagnosis_report_html(d, *, source: str = "", command: str | None = None,
     parts.append(_table(["quantity", "value"], prow))
     where = doc.get("where", {})
     parts.append("<h2>Where the model departs</h2>")
-    wrows = [[_e(k.replace("_", " ")), _cell(v)] for k, v in where.items()]
-    parts.append(_table(["test", "result"], wrows))
+    wrows = [[_e(_label(k)), _cell(v)] for k, v in where.items()]
+    parts.append(_table(["test", "result"], wrows, left=2))
     parts.append("<h2>Candidate ranking</h2>")
     crows = []
     for i, c in enumerate(doc.get("ranking", []), start=1):

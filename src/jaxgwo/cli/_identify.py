@@ -180,7 +180,7 @@ def _identify_with_progress(by_channel, settings, validation, quiet):
     from .._progress import Progress
 
     channels = list(by_channel)
-    with Progress(len(channels) + 1, "identify", "stages", quiet=quiet) as bar:
+    with Progress(len(channels) + 1, "identify", "stages", quiet=quiet, eta=False) as bar:
         preps = []
         for i, ch in enumerate(channels):
             bar.update(i, f"{ch}: frequency response, WLS start")

@@ -42,27 +42,35 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--excitation", choices=EXCITATIONS, default="sweep", help="input signal (default: sweep)")
     p.add_argument("--effect", action="append", default=[], metavar="NAME[:param=value,...]",
                    help="unmodelled effect to add; repeatable")
-    p.add_argument("--seed", type=int, default=None, help="PRNG seed (default 0; default dataset: 50)")
+    p.add_argument("--seed", type=int, default=None, metavar="N",
+                   help="PRNG seed (default 0; default dataset: 50)")
     p.add_argument("--out", metavar="FILE", help="output flight record, .csv or .npz")
     p.add_argument("--duration", type=float, default=None, metavar="S",
                    help="excitation length per channel in seconds (default: sweep 90, chirp 60, "
                         "doublet 10, 3211 12, multisine 60)")
     p.add_argument("--sample-rate", type=float, default=100.0, metavar="HZ", help="logging rate (default 100)")
-    p.add_argument("--amplitude", type=float, default=0.1, help="excitation amplitude, normalised (default 0.1)")
-    p.add_argument("--f-start", type=float, default=0.25, metavar="HZ", help="sweep/chirp/multisine start (0.25)")
-    p.add_argument("--f-stop", type=float, default=12.0, metavar="HZ", help="sweep/chirp/multisine stop (12)")
+    p.add_argument("--amplitude", type=float, default=0.1, metavar="A",
+                   help="excitation amplitude, normalised cyclic (default 0.1)")
+    p.add_argument("--f-start", type=float, default=0.25, metavar="HZ",
+                   help="sweep/chirp/multisine start frequency (default 0.25 Hz)")
+    p.add_argument("--f-stop", type=float, default=12.0, metavar="HZ",
+                   help="sweep/chirp/multisine stop frequency (default 12 Hz)")
     p.add_argument("--gust-rms", type=float, default=1.0, metavar="RAD_S2",
                    help="gust moment rms on roll; pitch gets 0.4 of it (default 1.0 rad/s^2)")
     p.add_argument("--gust-time-constant", type=float, default=1.5, metavar="S", help="Dryden L/V (default 1.5 s)")
-    p.add_argument("--snr-db", type=float, default=math.inf, help="rate signal-to-noise ratio in dB (default: none)")
+    p.add_argument("--snr-db", type=float, default=math.inf, metavar="DB",
+                   help="rate signal-to-noise ratio in dB (default: no SNR-based noise)")
     p.add_argument("--noise-std", type=float, default=0.002, metavar="RAD_S",
                    help="absolute white gyro noise (default 0.002 rad/s)")
-    p.add_argument("--off-axis-rms", type=float, default=0.01, help="pilot-like corrections on the other cyclic")
+    p.add_argument("--off-axis-rms", type=float, default=0.01, metavar="A",
+                   help="rms of the pilot-like corrections on the other cyclic, normalised "
+                        "(default 0.01)")
     p.add_argument("--hold", choices=("auto", "on", "off"), default="auto",
                    help="pilot hold loop (auto: on for r50, off for paper)")
     p.add_argument("--truth", action="store_true", help="also write p_true, q_true, exc_*, servo_* columns")
     p.add_argument("--default-dataset", metavar="DIR",
-                   help="write the embedded default dataset (three CSV files) into DIR instead")
+                   help="write the embedded default dataset (an identification and a "
+                        "validation CSV per channel) into DIR instead")
     p.set_defaults(func=run)
     return p
 
