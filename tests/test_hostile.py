@@ -32,7 +32,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxgwo._identify as identify_module
-from jaxgwo._data import FlightDataError, load_record, make_record, save_record
+from jaxgwo._data import FlightDataError, FlightRecord, load_record, make_record
 from jaxgwo._diagnose import DiagnoseSettings, diagnose
 from jaxgwo._identify import (
     IdentificationError,
@@ -481,6 +481,27 @@ def test_record_shorter_than_the_band_needs(seconds):
     assert ("needs at least 5" in msg) if n < 5 else ("at least 31.4 s of record" in msg)
 
 
+@HYPOTHESIS
+@given(row=st.integers(0, N - 1), col=st.sampled_from(["time", "delta_lat", "p"]),
+       value=st.sampled_from([np.nan, np.inf, -np.inf]))
+def test_non_finite_samples_in_a_hand_built_record(row, col, value):
+    """A FlightRecord built directly (bypassing the loader's checks) with a NaN or inf."""
+    cols = {k: BASE[k].copy() for k in ("time", "delta_lat", "p")}
+    cols[col][row] = value
+    rec = FlightRecord(time=jnp.asarray(cols["time"]), inputs={"delta_lat": jnp.asarray(cols["delta_lat"])},
+                       outputs={"p": jnp.asarray(cols["p"])}, extras={}, sample_rate=FS)
+    with pytest.raises(IdentificationError) as err:
+        _identify(rec)
+    msg = _one_line(str(err.value))
+    assert f"column {col!r} has a non-finite value ({float(value)!r}) at row {row}" in msg
+
+
+def test_records_at_different_sample_rates():
+    half = make_record(BASE["time"][::2], {k: BASE[k][::2] for k in ("delta_lat", "p")})
+    with pytest.raises(IdentificationError, match=r"different sample rates \[25.0, 50.0\] Hz; resample"):
+        identify_channels({"lateral": [_record(), half]}, SETTINGS)
+
+
 def test_identification_accepts_the_time_jitter_the_loader_accepts(reference):
     """Regression: the loader allows 1 % jitter, preprocessing used to reject 1e-6."""
     t = BASE["time"].copy()
@@ -512,7 +533,7 @@ def test_wrong_record_containers(records, message):
         identify_channels(records, SETTINGS)
 
 
-def test_unknown_channel(reference):
+def test_unknown_channel():
     with pytest.raises(ValueError, match="unknown channel 'sideways'; choose lateral or longitudinal"):
         identify_channels({"sideways": [_record()]}, SETTINGS)
 
@@ -911,3 +932,19 @@ def test_model_file_with_an_infinite_coefficient_is_rejected(tmp_path, model_doc
     (tmp_path / "m.json").write_text(json.dumps(doc))
     with pytest.raises(ValueError, match="tau"):
         export.load_model(tmp_path / "m.json")
+
+
+@pytest.mark.xfail(strict=True, reason="cli/_identify.py writes --json before it renders --plot, and "
+                                       "does not check the plot's format up front (see report)")
+def test_cli_unsupported_plot_format_leaves_no_json(hostile_dir, reference, monkeypatch):
+    d, files = hostile_dir
+    # the identification itself is not under test: hand the CLI the module's reference fit
+    # instead of compiling the 200-frequency pipeline again
+    monkeypatch.setattr(identify_module, "_prepare", lambda *args, **kwargs: None)
+    monkeypatch.setattr(identify_module, "_identify_prepared", lambda *args, **kwargs: {"lateral": reference})
+    monkeypatch.setattr(identify_module, "identify_channels", lambda *args, **kwargs: {"lateral": reference})
+    with tempfile.TemporaryDirectory() as out:
+        status, err = _cli(["identify", str(files["good"][0]), "--channel", "lateral", "--method", "wls",
+                            "--json", f"{out}/r.json", "--plot", f"{out}/r.xyz"])
+        assert status == 2 and "xyz" in _one_line(err)
+        assert os.listdir(out) == [], "the failing run left r.json behind"

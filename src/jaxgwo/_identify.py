@@ -221,8 +221,17 @@ def _check_signals(rec: FlightRecord, channel: str, role: str, index: int) -> No
             f"{where} has {rec.n_samples} samples; identification needs at least "
             f"{MIN_SAMPLES}. Use a longer record."
         )
-    for name in (u_name, y_name):
+    for name in ("time", u_name, y_name):
         x = np.asarray(rec[name], float)
+        bad = np.flatnonzero(~np.isfinite(x))  # a FlightRecord built without make_record
+        if bad.size:
+            i = int(bad[0])
+            raise IdentificationError(
+                f"{where}: column {name!r} has a non-finite value ({float(x[i])!r}) at row {i}; "
+                "build records with make_record or load_record, which reject these."
+            )
+        if name == "time":
+            continue
         big = np.flatnonzero(~(np.abs(x) <= MAX_ABS_SAMPLE))
         if big.size:
             i = int(big[0])
