@@ -106,7 +106,7 @@ def test_convergence_bands_from_histories_and_studies():
         n_seeds = 50
         history_quantiles = np.arange(15.0).reshape(5, 3)  # q05 q25 q50 q75 q95
 
-    band = _plots.bands_from_montecarlo(Summary())["50 seeds"]
+    band = _plots.bands_from_montecarlo(Summary())["best cost"]
     np.testing.assert_array_equal(band.median, [6.0, 7.0, 8.0])
     np.testing.assert_array_equal(band.q25, [3.0, 4.0, 5.0])
     np.testing.assert_array_equal(band.q75, [9.0, 10.0, 11.0])
@@ -135,3 +135,14 @@ def test_failed_write_leaves_nothing(tmp_path, results, monkeypatch):
         _plots.plot_validation(res, tmp_path / "keep.png")
     assert (tmp_path / "keep.png").read_bytes() == b"old"  # the old file is untouched
     assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.png"]
+
+
+def test_montecarlo_convergence_plot_from_the_cli(tmp_path):
+    from jaxgwo.cli._main import main
+
+    out = tmp_path / "conv.png"
+    assert main(["--quiet", "montecarlo", "--seeds", "3", "--chunk", "2", "--wolves", "6",
+                 "--iterations", "4", "--devices", "1", "--convergence-plot", str(out)]) == 0
+    assert_valid_png(out)
+    assert main(["montecarlo", "--convergence-plot", str(tmp_path / "no" / "c.png")]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["conv.png"]

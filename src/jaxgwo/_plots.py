@@ -179,7 +179,7 @@ class ConvergenceBand:
 
 def bands_from_montecarlo(summary) -> dict[str, ConvergenceBand]:
     """The Monte-Carlo history quantiles (``monte_carlo(..., keep_histories=True)``) as a
-    band; ``ValueError`` if the study kept none."""
+    band labelled ``"best cost"``; ``ValueError`` if the study kept none."""
     from ._montecarlo import QUANTILE_LEVELS
 
     hq = summary.history_quantiles
@@ -187,8 +187,7 @@ def bands_from_montecarlo(summary) -> dict[str, ConvergenceBand]:
         raise ValueError("the Monte-Carlo study kept no convergence histories; run it with "
                          "keep_histories=True (jaxgwo montecarlo --histories).")
     idx = {round(100 * p): i for i, p in enumerate(QUANTILE_LEVELS)}
-    return {f"{summary.n_seeds} seeds": ConvergenceBand(hq[idx[50]], hq[idx[25]], hq[idx[75]],
-                                                        summary.n_seeds)}
+    return {"best cost": ConvergenceBand(hq[idx[50]], hq[idx[25]], hq[idx[75]], summary.n_seeds)}
 
 
 def bands_from_compare(report, problem: str | None = None) -> dict[str, dict[str, ConvergenceBand]]:

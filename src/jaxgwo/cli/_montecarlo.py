@@ -124,7 +124,8 @@ def run(args) -> int:
     if args.convergence_plot:
         from jaxgwo._plots import bands_from_montecarlo, plot_convergence
 
-        plot_convergence({f"{args.method}, {args.wolves} wolves": bands_from_montecarlo(summary)},
+        panel = f"{args.method}, {args.wolves} wolves x {args.iterations} iterations"
+        plot_convergence({panel: bands_from_montecarlo(summary)},
                          args.convergence_plot, ylabel="best cost",
                          title="reference helicopter fit: best cost over seeds")
     if not args.quiet:
