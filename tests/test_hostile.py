@@ -779,18 +779,32 @@ def _cli(argv: list[str]) -> tuple[int, str]:
     return status, err.getvalue()
 
 
-@FEW
-@given(name=st.sampled_from(["nan", "duplicate_time", "text", "wrong_names", "constant_output", "zero_input",
-                             "short", "empty", "header_only", "object_npz", "ragged_npz", "huge"]),
-       command=st.sampled_from(["identify", "diagnose"]))
-def test_cli_hostile_file_exit_2_one_line_no_output(hostile_dir, name, command):
+LOADER_FAILURES = ["nan", "duplicate_time", "text", "wrong_names", "empty", "header_only", "object_npz",
+                   "ragged_npz"]
+CONTENT_FAILURES = ["constant_output", "zero_input", "huge"]  # load, then fail the checks
+
+
+@HYPOTHESIS
+@given(case=st.one_of(
+    st.tuples(st.just("identify"), st.just("train"), st.sampled_from(LOADER_FAILURES + CONTENT_FAILURES + ["short"])),
+    # identify's CLI checks the validation contents after the (200-frequency) WLS start:
+    # only the loader's rejections here, to keep the suite fast
+    st.tuples(st.just("identify"), st.just("validate"), st.sampled_from(LOADER_FAILURES)),
+    st.tuples(st.just("diagnose"), st.sampled_from(["train", "validate"]),
+              st.sampled_from(LOADER_FAILURES + CONTENT_FAILURES)),
+    st.tuples(st.just("diagnose"), st.just("train"), st.just("short")),
+))
+def test_cli_hostile_file_exit_2_one_line_no_output(hostile_dir, case):
+    command, role, name = case
     d, files = hostile_dir
     path, fragment = files[name]
+    good = str(files["good"][0])
+    train, val = (str(path), good) if role == "train" else (good, str(path))
     with tempfile.TemporaryDirectory() as out:
-        argv = [command, str(path), "--channel", "lateral", "--wolves", "8", "--iterations", "5",
+        argv = [command, train, "--channel", "lateral", "--wolves", "8", "--iterations", "5",
                 "--json", f"{out}/r.json", "--plot", f"{out}/r.png"]
-        if command == "diagnose":
-            argv += ["--validate", str(files["good"][0])]
+        if command == "diagnose" or role == "validate":
+            argv += ["--validate", val]
         status, err = _cli(argv)
         assert os.listdir(out) == [], "a failing run left files in the output directory"
     assert status == 2, err
@@ -822,6 +836,25 @@ def test_cli_bad_options_exit_2_one_line(hostile_dir, args, fragment):
     assert fragment in last, err
     if "invalid int" not in fragment:
         _one_line(err)
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--wolves", "2"], "wolves"),
+        (["--iterations", "0"], "iterations"),
+        (["--w-max", "-5"], "is empty or inverted"),
+        (["--w-max", "nan"], "w_max is NaN"),
+    ],
+)
+def test_cli_diagnose_bad_options_exit_2_one_line(hostile_dir, args, fragment):
+    d, files = hostile_dir
+    good = str(files["good"][0])
+    with tempfile.TemporaryDirectory() as out:
+        status, err = _cli(["diagnose", good, "--validate", good, "--channel", "lateral", *args,
+                            "--json", f"{out}/r.json", "--plot", f"{out}/r.png"])
+        assert os.listdir(out) == []
+    assert status == 2 and fragment in _one_line(err), err
 
 
 def test_cli_validation_file_problems_exit_2(hostile_dir):
