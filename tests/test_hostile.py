@@ -402,6 +402,25 @@ def test_trailing_commas_are_tolerated_but_nameless_data_is_not(tmp_path):
         load_record(path)
 
 
+def test_directory_bad_mapping_and_bad_metadata(tmp_path):
+    with pytest.raises(FlightDataError, match="is a directory; pass a .csv or .npz"):
+        load_record(tmp_path)
+    good = _write_csv(tmp_path / "g.csv", _small)
+    for columns in (["p", "gyro_x"], {"p": 3}):
+        with pytest.raises(FlightDataError, match="columns must map canonical names"):
+            load_record(good, columns=columns)
+    with pytest.raises(FlightDataError, match="metadata must be a mapping, not list"):
+        make_record(_small["time"], {"p": _small["p"]}, ["source"])
+
+
+def test_time_in_milliseconds_hints_at_the_unit():
+    """Documented result: the loader cannot know the unit; identification says where to look."""
+    rec = make_record(BASE["time"] * 1000.0, {k: BASE[k] for k in ("delta_lat", "p")})
+    assert rec.sample_rate == pytest.approx(FS / 1000.0)
+    with pytest.raises(IdentificationError, match="check that the time column is in seconds"):
+        _identify(rec)
+
+
 def test_metadata_errors_name_the_file(tmp_path):
     np.savez(tmp_path / "f.npz", **_small, __metadata__=np.array('{"a:b": "x"}'))
     with pytest.raises(FlightDataError, match=r"f\.npz: metadata key 'a:b'"):

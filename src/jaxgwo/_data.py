@@ -427,10 +427,23 @@ def load_record(
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"no such flight-data file: {p}")
-    if p.suffix.lower() == ".npz":
-        cols, meta = _read_npz(p)
-        return _build(cols, meta, where=str(p), required=required, mapping=columns, line_of=None)
-    cols, meta, lines, text = _read_csv(p)
+    if p.is_dir():
+        raise FlightDataError(f"{p} is a directory; pass a .csv or .npz flight-data file")
+    if columns is not None and not (
+        isinstance(columns, Mapping) and all(isinstance(v, str) for v in columns.values())
+    ):
+        raise FlightDataError(
+            f"columns must map canonical names to the file's column names, e.g. "
+            f'{{"p": "gyro_x"}}; got {columns!r:.80}'
+        )
+    try:
+        if p.suffix.lower() == ".npz":
+            cols, meta = _read_npz(p)
+            lines, text = None, []
+        else:
+            cols, meta, lines, text = _read_csv(p)
+    except OSError as err:  # unreadable (permissions, a device, ...): not a traceback
+        raise FlightDataError(f"{p}: cannot read the file ({err.strerror or err})") from None
     return _build(cols, meta, where=str(p), required=required, mapping=columns, line_of=lines,
                   text_columns=text)
 
@@ -456,6 +469,8 @@ def make_record(
                 "every column needs one value per time sample"
             )
         cols[k] = a
+    if metadata is not None and not isinstance(metadata, Mapping):
+        raise FlightDataError(f"record: metadata must be a mapping, not {type(metadata).__name__}")
     meta = dict(_metadata_items(metadata))
     return _build(cols, meta, where="record", required=required, mapping=None, line_of=None)
 

@@ -360,7 +360,11 @@ def composite_frequency_response(
         raise ValueError("w must be positive and strictly increasing")
     nyquist = np.pi * sample_rate_hz
     if w_out[-1] > nyquist:
-        raise ValueError(f"w_max {w_out[-1]:.4g} rad/s exceeds the Nyquist {nyquist:.4g} rad/s")
+        raise ValueError(
+            f"w_max {w_out[-1]:.4g} rad/s exceeds the Nyquist frequency {nyquist:.4g} rad/s of "
+            f"data sampled at {sample_rate_hz:.4g} Hz; lower w_max (or check that the time "
+            "column is in seconds)"
+        )
     if not 0.0 <= overlap < 1.0:
         raise ValueError("overlap must be in [0, 1)")
     t_need = min_periods * 2.0 * np.pi / w_out[0]
@@ -424,14 +428,15 @@ def composite_frequency_response(
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         H = gxy / gxx * (y_scale / u_scale)
         coh = np.clip(np.abs(gxy) ** 2 / (gxx * gyy), 0.0, 1.0)
-    coh = np.where(np.isnan(coh), 0.0, coh)  # 0/0: a silent (constant) output or input
+    undefined = np.isnan(coh)  # 0/0: a silent (constant) output or input
+    coh = np.where(undefined, 0.0, coh)
     coh = np.where(any_ok, coh, 0.0)
     H = np.where(any_ok, H, np.nan + 0j)
     nd = np.where(any_ok, nd, 0.0)
     win_s = np.where(any_ok, win_s, np.nan)
     err = random_error(coh, nd)
-    mask = any_ok & (coh >= coherence_threshold) & np.isfinite(H)
-    if not mask.any() and (any_ok & (coh >= coherence_threshold)).any():
+    mask = any_ok & ~undefined & (coh >= coherence_threshold) & np.isfinite(H)
+    if not mask.any() and (any_ok & ~undefined & (coh >= coherence_threshold)).any():
         raise ValueError(
             f"the gain |H| overflows float64: the output is about {y_scale:.3g} and the input "
             f"about {u_scale:.3g} in size; rescale the columns (check their units)"
