@@ -1000,3 +1000,26 @@ def test_cli_unsupported_plot_format_leaves_no_json(hostile_dir, reference, monk
                             "--json", f"{out}/r.json", "--plot", f"{out}/r.xyz"])
         assert status == 2 and "xyz" in _one_line(err)
         assert os.listdir(out) == [], "the failing run left r.json behind"
+
+
+def test_cli_directory_as_input_exit_2(hostile_dir):
+    """Regression: IsADirectoryError is no ValueError, so it escaped the CLI as a traceback."""
+    d, files = hostile_dir
+    for command in ("identify", "diagnose"):
+        status, err = _cli([command, str(d), "--channel", "lateral", "--validate", str(files["good"][0])])
+        assert status == 2 and "is a directory" in _one_line(err), err
+
+
+@pytest.mark.xfail(strict=True, raises=IsADirectoryError,
+                   reason="cli: --json naming a directory fails after the run with IsADirectoryError, "
+                          "which _main.main does not catch (see report)")
+def test_cli_json_path_that_is_a_directory_exit_2(hostile_dir, reference, monkeypatch):
+    d, files = hostile_dir
+    monkeypatch.setattr(identify_module, "_prepare", lambda *args, **kwargs: None)
+    monkeypatch.setattr(identify_module, "_identify_prepared", lambda *args, **kwargs: {"lateral": reference})
+    monkeypatch.setattr(identify_module, "identify_channels", lambda *args, **kwargs: {"lateral": reference})
+    with tempfile.TemporaryDirectory() as out:
+        status, err = _cli(["identify", str(files["good"][0]), "--channel", "lateral", "--method", "wls",
+                            "--json", out])
+        assert os.listdir(out) == []
+    assert status == 2 and "directory" in _one_line(err)
