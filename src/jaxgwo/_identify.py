@@ -242,15 +242,26 @@ def _check_signals(rec: FlightRecord, channel: str, role: str, index: int) -> No
 
 
 def _check_varies(raw: np.ndarray, clean: np.ndarray, where: str, role: str, name: str,
-                  what: str) -> None:
+                  what: str, n_wild: int) -> None:
     """A signal that preprocessing leaves flat (constant, or a straight line that the
     detrend removes) carries no frequency content: its spectra are rounding noise."""
     scale = float(np.max(np.abs(raw)))
-    if not np.ptp(clean) > 1e-9 * scale:
-        raise IdentificationError(
-            f"{where}: the {role} is constant (column {name!r}, or a straight line, which "
-            f"detrending removes), so {what}."
-        )
+    if np.ptp(clean) > 1e-9 * scale:
+        return
+    if n_wild:
+        n = raw.size
+        line = np.polyval(np.polyfit(np.arange(n, dtype=float), raw, 1), np.arange(n, dtype=float))
+        if np.ptp(raw - line) > 1e-9 * scale:
+            raise IdentificationError(
+                f"{where}: the {role} (column {name!r}) varies only in {n_wild} isolated "
+                "sample(s), which the wild-value correction replaced, leaving it flat, so "
+                f"{what}. If those samples are real, identify with "
+                "IdentifySettings(wild_values=False)."
+            )
+    raise IdentificationError(
+        f"{where}: the {role} is constant (column {name!r}, or a straight line, which "
+        f"detrending removes), so {what}."
+    )
 
 
 def _preprocessed(records, channel, settings, role="identification"):
@@ -268,10 +279,10 @@ def _preprocessed(records, channel, settings, role="identification"):
         where = f"{role} record {i} ({channel} channel)"
         _check_varies(u, pairs[-1][0], where, "input", u_name,
                       "nothing excites the channel; use a record with a frequency sweep on "
-                      "that cyclic")
+                      "that cyclic", report["u"].n_corrected)
         _check_varies(y, pairs[-1][1], where, "output", y_name,
                       "there is no response to identify or score; check that the rate "
-                      "column is the one the gyro logged")
+                      "column is the one the gyro logged", report["y"].n_corrected)
     return pairs, tuple(reports)
 
 

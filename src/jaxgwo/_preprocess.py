@@ -229,7 +229,7 @@ def reject_wild_values(
         resid, gain = _prediction_residual(xf)
         pred = xf - resid
         scale = _local_scale(resid / gain, bad, xf)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):  # a flat stretch: inf is not fine
             fine = np.abs(x - pred) / (gain * scale) <= threshold
         if (bad & fine).any():
             bad &= ~fine
