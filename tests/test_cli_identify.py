@@ -70,6 +70,8 @@ def test_identify_exports_and_reports(tmp_path, files, capsys):
     (["--export-format", "npz"], "--export-format needs --export FILE"),
     (["--report", "nodir/r.html"], "--report directory does not exist"),
     (["--export", "nodir/m.json"], "--export directory does not exist"),
+    (["--plot", "r.xyz"], "--plot format 'xyz' is not supported; use a name ending in one of"),
+    (["--report", "."], "--report . is a directory; give a file name"),
 ])
 def test_identify_rejects_bad_outputs_before_any_work(tmp_path, monkeypatch, files, capsys,
                                                       extra, match):

@@ -180,6 +180,26 @@ def test_bad_model_files_say_which_field(tmp_path, content, match):
         load_model(path)
 
 
+def test_numbers_beyond_float64_and_deep_nesting(tmp_path):
+    doc = _good(param_K=10**400)
+    with pytest.raises(ValueError, match=r"parameters\.K is an integer of 401 digits"):
+        load_model(_write(tmp_path, doc))
+    doc = _good(numerator=[10**400])
+    with pytest.raises(ValueError, match=r"numerator\[0\] is an integer of 401 digits"):
+        load_model(_write(tmp_path, doc))
+    with pytest.raises(ValueError, match="nests JSON arrays/objects too deeply"):
+        load_model(_write(tmp_path, "[" * 100_000 + "]" * 100_000))
+
+
+def test_parameters_with_infinite_coefficients_are_rejected(tmp_path):
+    """tau = 0 is a finite parameter whose transfer function divides by zero; without the
+    file's numerator/denominator to disagree with, the parameters themselves are checked."""
+    doc = _good(param_tau=0.0)
+    del doc["models"][0]["numerator"], doc["models"][0]["denominator"]
+    with pytest.raises(ValueError, match=r"models\[0\]\.parameters: K = .*, tau = 0\.0, .* give non-finite"):
+        load_model(_write(tmp_path, doc))
+
+
 def test_duplicate_channel_and_missing_file(tmp_path):
     doc = _good()
     doc["models"].append(dict(doc["models"][0]))

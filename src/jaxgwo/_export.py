@@ -107,9 +107,10 @@ def _coefficients(model, values) -> tuple[np.ndarray, np.ndarray]:
     num = np.asarray(model.numerator, dtype=np.float64)
     den = np.asarray(model.denominator, dtype=np.float64)
     if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
-        raise ValueError(f"the transfer-function coefficients of {values} overflow float64 "
-                         f"(numerator {num.tolist()}, denominator {den.tolist()}); such a model "
-                         "cannot be exported.")
+        shown = ", ".join(f"{k} = {v!r}" for k, v in values.items())
+        raise ValueError(f"{shown} give non-finite transfer-function coefficients (numerator "
+                         f"{num.tolist()}, denominator {den.tolist()}): a division by zero "
+                         "(tau = 0?) or an overflow of float64; such a model cannot be used.")
     return num, den
 
 
@@ -159,8 +160,12 @@ def model_to_dict(model: PaperModel | QuarticModel, channel: str | None = None,
 
 def _number(value, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{where} must be a number, got {value!r}.")
-    v = float(value)
+        raise ValueError(f"{where} must be a number, got {value!r:.60}.")
+    try:
+        v = float(value)
+    except OverflowError:  # a JSON integer beyond float64
+        raise ValueError(f"{where} is an integer of {len(str(abs(value)))} digits, beyond "
+                         "float64 (1.8e308); model values must be finite numbers.") from None
     if not math.isfinite(v):
         raise ValueError(f"{where} is {value!r}; model values must be finite numbers.")
     return v
@@ -204,6 +209,10 @@ def model_from_dict(entry: Mapping, where: str = "model") -> PaperModel | Quarti
     import jax.numpy as jnp
 
     model = cls.from_array(jnp.asarray(values, dtype=jnp.float64))
+    try:
+        _coefficients(model, dict(zip(names, values)))
+    except ValueError as err:
+        raise ValueError(f"{where}.parameters: {err}") from None
     for key in ("numerator", "denominator"):
         if key not in entry:
             continue
@@ -310,6 +319,9 @@ def _read_json(path: str | os.PathLike) -> dict:
     except json.JSONDecodeError as err:
         raise ValueError(f"model file {p} is not valid JSON: {err.msg} at line {err.lineno}, "
                          f"column {err.colno}.") from err
+    except RecursionError:
+        raise ValueError(f"model file {p} nests JSON arrays/objects too deeply to be a jaxgwo "
+                         "model file.") from None
     return doc
 
 

@@ -59,6 +59,9 @@ def run(args) -> int:
     from .._progress import Progress
     from .._testfunctions import helicopter_problem, mirjalili_functions
 
+    from ._identify import check_output_paths
+
+    check_output_paths(args, ("markdown", "plot"))
     if args.seeds < 2:
         raise ValueError(f"--seeds {args.seeds}: a comparison needs at least 2 seeds.")
     if args.dim < 2:

@@ -72,14 +72,42 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def check_output_paths(args, names=("json", "plot", "export", "report")) -> None:
-    """Fail before any work, not after a long run, when an output cannot be written."""
+FIGURE_OPTIONS = ("plot", "convergence_plot")
+
+
+def figure_format_error(flag: str, path: str) -> str | None:
+    """Why matplotlib cannot write a figure to ``path`` (from its extension), or None."""
+    import os
+
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    ext = os.path.splitext(path)[1].lower().lstrip(".") or "png"
+    supported = FigureCanvasBase.get_supported_filetypes()
+    if ext in supported:
+        return None
+    return (f"{flag} format {ext!r} is not supported; use a name ending in one of "
+            f"{', '.join('.' + e for e in sorted(supported))}.")
+
+
+def check_output_paths(args, names=("json", "plot", "export", "report", "convergence_plot",
+                                    "markdown")) -> None:
+    """Fail before any work, not after a long run, when an output cannot be written: its
+    directory is missing, it names a directory, or its format is unknown."""
     from pathlib import Path
 
     for name in names:
         path = getattr(args, name, None)
-        if path and not Path(path).resolve().parent.is_dir():
-            raise ValueError(f"--{name} directory does not exist: {Path(path).parent}")
+        if not path:
+            continue
+        flag = "--" + name.replace("_", "-")
+        if Path(path).is_dir():
+            raise ValueError(f"{flag} {path} is a directory; give a file name.")
+        if not Path(path).resolve().parent.is_dir():
+            raise ValueError(f"{flag} directory does not exist: {Path(path).parent}")
+        if name in FIGURE_OPTIONS:
+            why = figure_format_error(flag, path)
+            if why:
+                raise ValueError(why)
     export = getattr(args, "export", None)
     if export:
         from .._export import _format_for

@@ -109,7 +109,9 @@ def main(argv: list[str] | None = None) -> int:
     enable_compilation_cache()
     try:
         return int(args.func(args) or 0)
-    except (UserError, ValueError, FileNotFoundError) as err:
+    except (UserError, ValueError, OSError) as err:
+        # OSError: a missing file, a directory where a file was expected, no permission,
+        # a full disk -- the user's environment, told in one line (outputs are atomic)
         print(f"jaxgwo {args.command}: error: {err}", file=sys.stderr)
         return 2
 

@@ -7,7 +7,6 @@ import json
 import math
 import os
 import sys
-from pathlib import Path
 
 DESCRIPTION = """\
 Run N independent GWO/IGWO seeds of the reference problem (the paper model's 5-parameter
@@ -72,10 +71,9 @@ def _check(args) -> None:
         raise ValueError(f"--iterations must be >= 1, got {args.iterations}")
     if not (math.isfinite(args.tolerance) and args.tolerance > 0):
         raise ValueError(f"--tolerance must be a positive number, got {args.tolerance}")
-    for flag, path in (("--json", args.json), ("--plot", args.plot),
-                       ("--convergence-plot", args.convergence_plot)):
-        if path and not Path(path).resolve().parent.is_dir():
-            raise ValueError(f"{flag} directory does not exist: {Path(path).parent}")
+    from ._identify import check_output_paths
+
+    check_output_paths(args, ("json", "plot", "convergence_plot"))
 
 
 def _use_cpu_cores(devices: int) -> None:
