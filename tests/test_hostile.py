@@ -103,6 +103,10 @@ def _write_csv(path: Path, cols: dict, header: str | None = None, comments=("# s
 def _no_hang():
     """A hang is a failure: each test must finish within two minutes."""
 
+    if not hasattr(signal, "SIGALRM"):  # not on Windows
+        yield
+        return
+
     def timeout(signum, frame):
         raise TimeoutError("hostile-input test took over 120 s: a hang?")
 
@@ -942,6 +946,42 @@ def test_cli_missing_output_directory_exit_2(hostile_dir):
     assert status == 2 and not (d / "no").exists()
 
 
+def test_cli_unsupported_plot_format_leaves_no_json(hostile_dir, reference, monkeypatch):
+    """Regression: the JSON was written, then the plot failed on its format: r.json stayed."""
+    d, files = hostile_dir
+    # the identification itself is not under test: hand the CLI the module's reference fit
+    # instead of compiling the 200-frequency pipeline again
+    monkeypatch.setattr(identify_module, "_prepare", lambda *args, **kwargs: None)
+    monkeypatch.setattr(identify_module, "_identify_prepared", lambda *args, **kwargs: {"lateral": reference})
+    monkeypatch.setattr(identify_module, "identify_channels", lambda *args, **kwargs: {"lateral": reference})
+    with tempfile.TemporaryDirectory() as out:
+        status, err = _cli(["identify", str(files["good"][0]), "--channel", "lateral", "--method", "wls",
+                            "--json", f"{out}/r.json", "--plot", f"{out}/r.xyz"])
+        assert os.listdir(out) == [], "the failing run left r.json behind"
+    assert status == 2 and "xyz" in _one_line(err)
+
+
+def test_cli_directory_as_input_exit_2(hostile_dir):
+    """Regression: IsADirectoryError is no ValueError, so it escaped the CLI as a traceback."""
+    d, files = hostile_dir
+    for command in ("identify", "diagnose"):
+        status, err = _cli([command, str(d), "--channel", "lateral", "--validate", str(files["good"][0])])
+        assert status == 2 and "is a directory" in _one_line(err), err
+
+
+def test_cli_json_path_that_is_a_directory_exit_2(hostile_dir, reference, monkeypatch):
+    """--json naming a directory: IsADirectoryError (an OSError) ends in exit 2, one line."""
+    d, files = hostile_dir
+    monkeypatch.setattr(identify_module, "_prepare", lambda *args, **kwargs: None)
+    monkeypatch.setattr(identify_module, "_identify_prepared", lambda *args, **kwargs: {"lateral": reference})
+    monkeypatch.setattr(identify_module, "identify_channels", lambda *args, **kwargs: {"lateral": reference})
+    with tempfile.TemporaryDirectory() as out:
+        status, err = _cli(["identify", str(files["good"][0]), "--channel", "lateral", "--method", "wls",
+                            "--json", out])
+        assert os.listdir(out) == []
+    assert status == 2 and "directory" in _one_line(err)
+
+
 # -- JSON model files (jaxgwo._export): wrong types ----------------------------------------
 
 export = pytest.importorskip("jaxgwo._export")
@@ -1030,39 +1070,3 @@ def test_model_file_with_an_infinite_coefficient_is_rejected(tmp_path, model_doc
     (tmp_path / "m.json").write_text(json.dumps(doc))
     with pytest.raises(ValueError, match="tau"):
         export.load_model(tmp_path / "m.json")
-
-
-def test_cli_unsupported_plot_format_leaves_no_json(hostile_dir, reference, monkeypatch):
-    """Regression: the JSON was written, then the plot failed on its format: r.json stayed."""
-    d, files = hostile_dir
-    # the identification itself is not under test: hand the CLI the module's reference fit
-    # instead of compiling the 200-frequency pipeline again
-    monkeypatch.setattr(identify_module, "_prepare", lambda *args, **kwargs: None)
-    monkeypatch.setattr(identify_module, "_identify_prepared", lambda *args, **kwargs: {"lateral": reference})
-    monkeypatch.setattr(identify_module, "identify_channels", lambda *args, **kwargs: {"lateral": reference})
-    with tempfile.TemporaryDirectory() as out:
-        status, err = _cli(["identify", str(files["good"][0]), "--channel", "lateral", "--method", "wls",
-                            "--json", f"{out}/r.json", "--plot", f"{out}/r.xyz"])
-        assert os.listdir(out) == [], "the failing run left r.json behind"
-    assert status == 2 and "xyz" in _one_line(err)
-
-
-def test_cli_directory_as_input_exit_2(hostile_dir):
-    """Regression: IsADirectoryError is no ValueError, so it escaped the CLI as a traceback."""
-    d, files = hostile_dir
-    for command in ("identify", "diagnose"):
-        status, err = _cli([command, str(d), "--channel", "lateral", "--validate", str(files["good"][0])])
-        assert status == 2 and "is a directory" in _one_line(err), err
-
-
-def test_cli_json_path_that_is_a_directory_exit_2(hostile_dir, reference, monkeypatch):
-    """--json naming a directory: IsADirectoryError (an OSError) ends in exit 2, one line."""
-    d, files = hostile_dir
-    monkeypatch.setattr(identify_module, "_prepare", lambda *args, **kwargs: None)
-    monkeypatch.setattr(identify_module, "_identify_prepared", lambda *args, **kwargs: {"lateral": reference})
-    monkeypatch.setattr(identify_module, "identify_channels", lambda *args, **kwargs: {"lateral": reference})
-    with tempfile.TemporaryDirectory() as out:
-        status, err = _cli(["identify", str(files["good"][0]), "--channel", "lateral", "--method", "wls",
-                            "--json", out])
-        assert os.listdir(out) == []
-    assert status == 2 and "directory" in _one_line(err)
