@@ -237,6 +237,13 @@ def test_csv_ragged_row_names_the_line(line, keep):
             load_record(path)
 
 
+def test_decimal_commas_are_hinted(tmp_path):
+    path = tmp_path / "f.csv"
+    path.write_text("time,delta_lat,delta_lon,p,q\n0,0,0,0,0\n0,01,0,5,0,0,0\n")
+    with pytest.raises(FlightDataError, match=r"line 3 has 7 fields, the header has 5 \(decimal commas\?"):
+        load_record(path)
+
+
 names = st.text(st.sampled_from("abcdefghijklmnopqrstuvwxyz_ABCXYZ0123456789 .-"), min_size=1, max_size=10)
 
 
@@ -628,6 +635,8 @@ bad_settings = st.one_of(
     st.fixed_dictionaries({"detrend": st.just("quadratic")}),
     st.fixed_dictionaries({"lowpass_hz": st.sampled_from([0.0, -2.0, math.nan])}),
     st.fixed_dictionaries({"method": st.just("genetic")}),
+    st.fixed_dictionaries({"zoh_correction": st.sampled_from(["no", 0, None])}),
+    st.fixed_dictionaries({"wild_values": st.sampled_from(["yes", 1])}),
 )
 
 
@@ -641,6 +650,13 @@ def test_bad_settings_name_the_field(change):
     msg = _one_line(str(err.value))
     field = next(iter(change))
     assert field in msg or ("frequency band" in msg and field in ("w_min", "w_max")), msg
+
+
+def test_preprocessing_errors_name_the_record():
+    """A low-pass cutoff above the record's Nyquist frequency (25 Hz here)."""
+    with pytest.raises(IdentificationError, match=r"identification record 0 \(lateral channel\): "
+                                                  r"preprocessing: low-pass cutoff 40.0 Hz"):
+        _identify(_record(), dataclasses.replace(SETTINGS, lowpass_hz=40.0))
 
 
 def test_validation_is_checked_before_the_fit(monkeypatch):

@@ -317,8 +317,12 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str], list[i
                     raise FlightDataError(f"{path}: duplicate column name(s) {dup} in the header")
                 continue
             if len(cells) != len(header):
+                hint = ""
+                if len(cells) > len(header) and any(c.isdigit() for c in cells[-1][:1]):
+                    hint = " (decimal commas? write numbers with a '.' decimal point)"
                 raise FlightDataError(
-                    f"{path}: line {lineno} has {len(cells)} fields, the header has {len(header)}"
+                    f"{path}: line {lineno} has {len(cells)} fields, the header has "
+                    f"{len(header)}{hint}"
                 )
             rows.append(cells)
             lines.append(lineno)

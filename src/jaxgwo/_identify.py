@@ -135,6 +135,9 @@ class IdentifySettings:
             raise ValueError(f"seed_spread {self.seed_spread} must be finite and >= 0.")
         if not 0.0 <= self.seeded_fraction <= 1.0:
             raise ValueError(f"seeded_fraction {self.seeded_fraction} must lie in [0, 1].")
+        for name in ("zoh_correction", "wild_values"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name}={getattr(self, name)!r} must be True or False.")
         if self.detrend not in (None, "constant", "linear"):
             raise ValueError(f"detrend {self.detrend!r}: choose None, 'constant' or 'linear'.")
         if self.lowpass_hz is not None:
@@ -270,13 +273,16 @@ def _preprocessed(records, channel, settings, role="identification"):
     for i, rec in enumerate(records):
         u, y = channel_signals(rec, channel)
         _check_signals(rec, channel, role, i)
-        clean, report = preprocess(
-            np.asarray(rec.time), {"u": u, "y": y}, wild_values=settings.wild_values,
-            detrend_kind=settings.detrend, lowpass_hz=settings.lowpass_hz,
-        )
+        where = f"{role} record {i} ({channel} channel)"
+        try:
+            clean, report = preprocess(
+                np.asarray(rec.time), {"u": u, "y": y}, wild_values=settings.wild_values,
+                detrend_kind=settings.detrend, lowpass_hz=settings.lowpass_hz,
+            )
+        except ValueError as err:  # e.g. a low-pass cutoff above this record's Nyquist
+            raise IdentificationError(f"{where}: preprocessing: {err}") from None
         pairs.append((np.asarray(clean["u"]), np.asarray(clean["y"])))
         reports.append(report)
-        where = f"{role} record {i} ({channel} channel)"
         _check_varies(u, pairs[-1][0], where, "input", u_name,
                       "nothing excites the channel; use a record with a frequency sweep on "
                       "that cyclic", report["u"].n_corrected)
