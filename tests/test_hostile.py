@@ -733,8 +733,9 @@ def test_bad_frequency_grid_names_the_point(i, how):
         (dict(coherence=np.full(40, 1.5)), r"coherence at w\[0\] .* is 1\.5"),
         (dict(coherence=np.full(40, np.nan)), r"coherence at w\[0\] .* is nan"),
         (dict(H=H_TRUE[:30]), r"H has shape \(30,\) but w has \(40,\)"),
+        (dict(coherence=np.zeros(40)), r"w\[0\] = 1 rad/s is in the mask with coherence 0, below"),
     ],
-    ids=["zero-gain", "huge-gain", "coherence>1", "nan-coherence", "short-H"],
+    ids=["zero-gain", "huge-gain", "coherence>1", "nan-coherence", "short-H", "mask-ignores-coherence"],
 )
 def test_bad_response_values(change, message):
     with pytest.raises(IdentificationError, match=message):

@@ -506,6 +506,16 @@ def _check_response(response: FrequencyResponse, channel: str) -> None:
             f"{channel}: coherence at w[{i}] = {w[i]:.4g} rad/s is {float(coh[i])!r}; the "
             "magnitude-squared coherence lies in [0, 1]."
         )
+    thr = float(response.coherence_threshold)
+    bad = np.flatnonzero(used & (coh < thr))
+    if bad.size:  # FrequencyResponse's invariant: the mask holds coherence >= threshold
+        i = int(bad[0])
+        raise IdentificationError(
+            f"{channel}: w[{i}] = {w[i]:.4g} rad/s is in the mask with coherence "
+            f"{float(coh[i]):.3g}, below the response's coherence_threshold {thr:g}; build "
+            "the response with FrequencyResponse.from_complex(w, H, coherence) so the mask "
+            "follows the coherence."
+        )
     with np.errstate(divide="ignore"):
         decades = np.abs(np.log10(mag))
     bad = np.flatnonzero(used & ~(decades <= MAX_GAIN_DECADES))
