@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from ._identify import check_output_paths, command_line
+from ._identify import add_input_options, check_output_paths, command_line, load_by_channel
 
 
 def add_parser(sub) -> None:
@@ -21,10 +21,12 @@ def add_parser(sub) -> None:
             "candidate effect (time_delay, sensor_lag, rotor_flapping, cross_coupling,\n"
             "structural_mode, rate_limit, backlash, saturation), refit it and rank the candidates\n"
             "by what they explain on the held-out VAL records. Answers 'none' when no candidate\n"
-            "beats noise. The ranking is not calibrated yet (see README)."
+            "beats noise. With no TRAIN it diagnoses the embedded default dataset (simulated\n"
+            "R-50) on its held-out record of the channel."
         ),
         epilog=(
-            "example:\n"
+            "examples:\n"
+            "  jaxgwo diagnose --channel lateral --report d.html     # the embedded dataset\n"
             "  jaxgwo diagnose sweep.csv --validate check.csv --channel lateral \\\n"
             "      --json d.json --plot d.png --report d.html --export nominal.json\n"
             "\n"
@@ -34,9 +36,12 @@ def add_parser(sub) -> None:
         ),
         formatter_class=HelpFormatter,
     )
-    p.add_argument("files", nargs="+", metavar="TRAIN", help="identification records (.csv or .npz)")
+    p.add_argument("files", nargs="*", metavar="TRAIN",
+                   help="identification records (csv, npz or a flight log); none: the embedded "
+                        "default dataset")
     p.add_argument("--validate", nargs="+", metavar="VAL", default=None,
-                   help="held-out validation records (required; nothing is fitted to them)")
+                   help="held-out validation records (required with TRAIN; nothing is fitted "
+                        "to them)")
     p.add_argument("--channel", choices=("lateral", "longitudinal"), required=True,
                    help="lateral: p/delta_lat, longitudinal: q/delta_lon")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="PRNG seed of the optimisers")
@@ -54,6 +59,7 @@ def add_parser(sub) -> None:
                    help="write the nominal model (.json model file or .npz), candidates in its metadata")
     p.add_argument("--export-format", choices=EXPORT_FORMATS, default=None,
                    help="format of --export (default: from its extension)")
+    add_input_options(p)
     p.set_defaults(func=run)
 
 
@@ -84,24 +90,36 @@ def export_diagnosis(d, path: str, fmt: str | None, source: str) -> str:
 
 def run(args) -> int:
     from .._atomic import atomic_write_text
-    from .._data import CHANNELS, load_record
+    from .._data import default_dataset
     from .._diagnose import DiagnoseSettings, diagnose, plot_diagnosis
     from .._identify import IdentifySettings
 
-    if not args.validate:
+    if args.files and not args.validate:
         raise ValueError("diagnose needs held-out records: pass --validate VAL [VAL ...] (the ranking is scored on them).")
     if args.wolves < 4 or args.iterations < 1:
         raise ValueError("--wolves must be >= 4 and --iterations >= 1.")
     check_output_paths(args)
-    cols = CHANNELS[args.channel]
-    train = [load_record(p, required=cols) for p in args.files]
-    val = [load_record(p, required=cols) for p in args.validate]
+    ch = args.channel
+    if args.files:
+        train = load_by_channel(args.files, (ch,), args)[ch]
+        source = ", ".join(args.files)
+    else:
+        if args.run is not None or args.window is not None:
+            raise ValueError("--run and --window select part of a flight log; give the log file.")
+        data = default_dataset()
+        train = [data.identification[ch]]
+        source = "embedded default dataset (simulated Yamaha R-50 hover)"
+    if args.validate:
+        val = load_by_channel(args.validate, (ch,), args, role="validation")[ch]
+        source += " (validated on " + ", ".join(args.validate) + ")"
+    else:
+        val = [data.validation[ch]]
+        source += " (validated on its held-out record)"
     ids = IdentifySettings(method="wls-igwo+polish", wolves=args.wolves, iterations=args.iterations,
                            seed=args.seed, w_max=args.w_max)
     settings = DiagnoseSettings(identify=ids, wolves=args.wolves, iterations=args.iterations, seed=args.seed)
     d = diagnose(train, val, args.channel, settings)
     print(d.summary())
-    source = ", ".join(args.files) + " (validated on " + ", ".join(args.validate) + ")"
     if args.json:
         atomic_write_text(args.json, json.dumps(d.to_json(), indent=2) + "\n")
     if args.plot:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import sys
 import time
-from collections.abc import Mapping
 
 JSON_SCHEMA_VERSION = 1
 
@@ -69,6 +68,7 @@ def add_parser(sub) -> None:
                    help="self-contained HTML report: tables and figures in one file")
     p.add_argument("--quiet", action="store_true",
                    help="no progress line on stderr (shown only on a terminal anyway)")
+    add_input_options(p)
     p.set_defaults(func=run)
 
 
@@ -123,17 +123,72 @@ def command_line() -> str:
     return "jaxgwo " + " ".join(shlex.quote(a) for a in sys.argv[1:])
 
 
-def _load(paths, channels):
-    """Load records, requiring only the columns of the channels asked for."""
-    from .._data import CHANNELS, load_record
+def add_input_options(p) -> None:
+    """``--format`` and the flight-log options shared by identify and diagnose."""
+    from .._logs import FORMATS
 
-    required = tuple(c for ch in channels for c in CHANNELS[ch])
-    return [load_record(p, required=required) for p in paths]
+    g = p.add_argument_group("input files")
+    g.add_argument("--format", choices=FORMATS, default="auto",
+                   help="file format: jaxgwo csv/npz, an ArduPilot DataFlash .bin or a PX4 "
+                        ".ulg log; auto: by extension, else by the file's first bytes")
+    g.add_argument("--log-input", choices=("mixer", "targ"), default="mixer",
+                   help="ArduPilot input: the rate controllers' mixer outputs RATE.ROut/POut "
+                        "(bare airframe) or the injected chirp SIDD.Targ")
+    g.add_argument("--run", type=int, default=None, metavar="N",
+                   help="ArduPilot: which System ID (SIDS) run to take, 0 = first; default: "
+                        "the log's run on the channel identified")
+    g.add_argument("--window", type=float, nargs=2, default=None, metavar=("START_S", "STOP_S"),
+                   help="ArduPilot/PX4: take this time span (s since boot) instead of a run")
+
+
+def load_by_channel(paths, channels, args, role: str = "identification") -> dict:
+    """``{channel: [records]}`` from ``paths`` in any supported format (``--format``).
+
+    A jaxgwo CSV/NPZ file or a PX4 log serves every channel whose columns it has.  An
+    ArduPilot log is read once per channel: each channel takes its own System ID run (or
+    ``--run``/``--window``).
+    """
+    from .._data import CHANNELS
+    from .._logs import detect_format, load_any
+
+    fmt_opt = getattr(args, "format", "auto")
+    run_opt, window = getattr(args, "run", None), getattr(args, "window", None)
+    out = {ch: [] for ch in channels}
+    for path in paths:
+        fmt = detect_format(path) if fmt_opt == "auto" else fmt_opt
+        try:
+            if fmt == "ardupilot":
+                for ch in channels:
+                    one = run_opt is not None or window is not None
+                    out[ch].append(load_any(
+                        path, format=fmt, required=CHANNELS[ch], input=args.log_input,
+                        run=run_opt, window=window, channel=None if one else ch))
+                continue
+            if fmt == "px4":
+                rec = load_any(path, format=fmt, window=window)
+            else:
+                if run_opt is not None or window is not None:
+                    raise ValueError(f"{path}: --run and --window apply to flight logs "
+                                     f"(ardupilot, px4), not to {fmt} files.")
+                rec = load_any(path, format=fmt, required=())
+        except ImportError as err:  # an optional extra missing: a user's fix, one line
+            raise ValueError(str(err)) from None
+        for ch in channels:
+            if all(c in rec.columns for c in CHANNELS[ch]):
+                out[ch].append(rec)
+    for ch in channels:
+        if not out[ch]:
+            u, y = CHANNELS[ch]
+            raise ValueError(
+                f"no {role} file has the {ch} columns {u!r} and {y!r}; pick --channel, or "
+                "map or rename the columns (jaxgwo.load_record(path, columns={...}))."
+            )
+    return out
 
 
 def run(args) -> int:
     from .._atomic import atomic_write_text
-    from .._data import CHANNELS, default_dataset
+    from .._data import default_dataset
     from .._identify import IdentifySettings
 
     t0 = time.perf_counter()
@@ -145,41 +200,20 @@ def run(args) -> int:
     )
     settings.optimiser()  # configuration errors before any data work
     if args.files:
-        train = _load(args.files, channels)
-        validation = _load(args.validate, channels) if args.validate else None
-        by_channel = {}
-        for ch in channels:
-            cols = CHANNELS[ch]
-            recs = [r for r in train if all(c in r.columns for c in cols)]
-            if not recs:
-                raise ValueError(
-                    f"no identification file has the {ch} columns {cols[0]!r} and {cols[1]!r} "
-                    f"(columns seen: {', '.join(train[0].columns)}); pick --channel or rename "
-                    "the columns."
-                )
-            by_channel[ch] = recs
+        by_channel = load_by_channel(args.files, channels, args)
         source = ", ".join(args.files)
     else:
+        if any(getattr(args, k, None) is not None for k in ("run", "window")):
+            raise ValueError("--run and --window select part of a flight log; give the log file.")
         data = default_dataset()
         by_channel = {ch: [data.identification[ch]] for ch in channels}
-        if args.validate:
-            validation = _load(args.validate, channels)
-        elif isinstance(data.validation, Mapping):  # one held-out record per channel
-            validation = {ch: [data.validation[ch]] for ch in channels}
-        else:
-            validation = [data.validation]
         source = "embedded default dataset (simulated Yamaha R-50 hover)"
-    if validation:
-        for ch in channels:
-            cols = CHANNELS[ch]
-            recs = validation.get(ch, []) if isinstance(validation, Mapping) else validation
-            for rec in recs:
-                missing = [c for c in cols if c not in rec.columns]
-                if missing:
-                    raise ValueError(
-                        f"validation record lacks {ch} column(s) {missing}; it has "
-                        f"{', '.join(rec.columns)}."
-                    )
+    if args.validate:
+        validation = load_by_channel(args.validate, channels, args, role="validation")
+    elif not args.files:  # the embedded held-out record of each channel
+        validation = {ch: [data.validation[ch]] for ch in channels}
+    else:
+        validation = None
     results = _identify_with_progress(by_channel, settings, validation, args.quiet)
     wall = time.perf_counter() - t0
     print(summary_table(results, source, wall))
