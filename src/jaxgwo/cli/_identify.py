@@ -154,6 +154,7 @@ def load_by_channel(paths, channels, args, role: str = "identification") -> dict
     fmt_opt = getattr(args, "format", "auto")
     run_opt, window = getattr(args, "run", None), getattr(args, "window", None)
     out = {ch: [] for ch in channels}
+    seen: dict[str, None] = {}  # every column of every file read, in order
     for path in paths:
         fmt = detect_format(path) if fmt_opt == "auto" else fmt_opt
         try:
@@ -173,6 +174,7 @@ def load_by_channel(paths, channels, args, role: str = "identification") -> dict
                 rec = load_any(path, format=fmt, required=())
         except ImportError as err:  # an optional extra missing: a user's fix, one line
             raise ValueError(str(err)) from None
+        seen.update(dict.fromkeys(rec.columns))
         for ch in channels:
             if all(c in rec.columns for c in CHANNELS[ch]):
                 out[ch].append(rec)
@@ -180,8 +182,9 @@ def load_by_channel(paths, channels, args, role: str = "identification") -> dict
         if not out[ch]:
             u, y = CHANNELS[ch]
             raise ValueError(
-                f"no {role} file has the {ch} columns {u!r} and {y!r}; pick --channel, or "
-                "map or rename the columns (jaxgwo.load_record(path, columns={...}))."
+                f"no {role} file has the {ch} columns {u!r} and {y!r} (columns seen: "
+                f"{', '.join(seen)}); pick --channel, or map or rename the columns "
+                "(jaxgwo.load_record(path, columns={...}))."
             )
     return out
 
