@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.signal
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import jaxgwo._identify as identify_module
@@ -868,8 +868,7 @@ def _cli(argv: list[str]) -> tuple[int, str]:
     return status, err.getvalue()
 
 
-LOADER_FAILURES = ["nan", "duplicate_time", "text", "wrong_names", "empty", "header_only", "object_npz",
-                   "ragged_npz"]
+LOADER_FAILURES = ["nan", "duplicate_time", "text", "empty", "header_only", "object_npz", "ragged_npz"]
 CONTENT_FAILURES = ["constant_output", "zero_input", "huge"]  # load, then fail the checks
 
 
@@ -948,12 +947,27 @@ def test_cli_diagnose_bad_options_exit_2_one_line(hostile_dir, args, fragment):
 
 def test_cli_validation_file_problems_exit_2(hostile_dir):
     d, files = hostile_dir
-    for name in ("nan", "empty", "wrong_names"):
+    for name in ("nan", "empty"):
         with tempfile.TemporaryDirectory() as out:
             status, err = _cli(["identify", str(files["good"][0]), "--channel", "lateral",
                                 "--validate", str(files[name][0]), "--json", f"{out}/r.json"])
             assert os.listdir(out) == []
         assert status == 2 and files[name][1] in _one_line(err), err
+
+
+@pytest.mark.parametrize("command, role", [("identify", "train"), ("identify", "validate"),
+                                           ("diagnose", "train"), ("diagnose", "validate")])
+def test_cli_wrong_column_names_list_the_columns_present(hostile_dir, command, role):
+    """Unknown column names: the one-line error names the missing column and lists those the
+    file has, so the user can map or rename them."""
+    d, files = hostile_dir
+    good, wrong = str(files["good"][0]), str(files["wrong_names"][0])
+    train, val = (wrong, good) if role == "train" else (good, wrong)
+    argv = [command, train, "--channel", "lateral", "--validate", val]
+    status, err = _cli(argv)
+    line = _one_line(err)
+    assert status == 2 and "delta_lat" in line, line
+    assert "time, ail, ele, gx, gy" in line, f"the columns the file has are not listed: {line}"
 
 
 def test_cli_missing_output_directory_exit_2(hostile_dir):
