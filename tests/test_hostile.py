@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.signal
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxgwo._identify as identify_module
@@ -384,6 +384,34 @@ def test_random_bytes_never_escape_as_another_exception(data, suffix):
             load_record(path, required=())
         except FlightDataError as err:
             _one_line(str(err))
+
+
+cell = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr),
+                 st.integers(-10, 10).map(str),
+                 st.sampled_from(["", " ", "nan", "x", "1e999", "0x1", '"1"', "# c", "1;2"]))
+
+
+@settings(HYPOTHESIS, max_examples=30)
+@given(header=st.lists(st.sampled_from([*COLUMNS, "rpm", "mode", "", "p "]), min_size=1, max_size=7),
+       rows=st.lists(st.lists(cell, min_size=1, max_size=8), max_size=6),
+       comments=st.lists(st.sampled_from(["# sample_rate_hz: 100", "# a: b", "#", "# sample_rate_hz: x"]),
+                         max_size=2))
+def test_random_csv_text_gives_a_valid_record_or_a_flight_data_error(header, rows, comments):
+    """Whatever the text: a record whose time is finite, increasing and uniform and whose
+    data columns are finite, or a one-line FlightDataError -- never another exception."""
+    text = "\n".join([*comments, ",".join(header), *(",".join(r) for r in rows)]) + "\n"
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "f.csv"
+        path.write_text(text)
+        try:
+            rec = load_record(path, required=())
+        except FlightDataError as err:
+            _one_line(str(err))
+            return
+    t = np.asarray(rec.time)
+    assert t.size >= 2 and np.all(np.isfinite(t)) and np.all(np.diff(t) > 0)
+    for name in (*rec.inputs, *rec.outputs):
+        assert np.all(np.isfinite(np.asarray(rec[name])))
 
 
 def test_undecodable_bytes_bom_and_nul(tmp_path):
