@@ -133,9 +133,17 @@ from ._logs import load_ardupilot as load_ardupilot  # noqa: E402
 from ._logs import load_px4 as load_px4  # noqa: E402
 from ._logs import ardupilot_runs as ardupilot_runs  # noqa: E402
 from ._logs import SystemIdRun as SystemIdRun  # noqa: E402
+from ._diagnose import diagnose as diagnose  # noqa: E402
+from ._diagnose import DiagnoseSettings as DiagnoseSettings  # noqa: E402
+from ._diagnose import Diagnosis as Diagnosis  # noqa: E402
+from ._diagnose import plot_diagnosis as plot_diagnosis  # noqa: E402
 __version__ = "0.1.0"
 
 __all__ = [
+    "diagnose",
+    "DiagnoseSettings",
+    "Diagnosis",
+    "plot_diagnosis",
     "ChannelIdentification",
     "CiferObjective",
     "ComplexErrorObjective",
