@@ -657,7 +657,7 @@ bad_settings = st.one_of(
     st.fixed_dictionaries({"search_factor": st.sampled_from([1.0, 0.5, math.nan, math.inf])}),
     st.fixed_dictionaries({"seed_spread": st.sampled_from([-1.0, math.nan])}),
     st.fixed_dictionaries({"seeded_fraction": st.sampled_from([-0.1, 1.5])}),
-    st.fixed_dictionaries({"seed": st.sampled_from(["x", 1.5])}),
+    st.fixed_dictionaries({"seed": st.sampled_from(["x", 1.5, 2**63, -(2**63) - 1, 10**30])}),
     st.fixed_dictionaries({"sk_iterations": st.just(-1)}),
     st.fixed_dictionaries({"polish_steps": st.just(-3)}),
     st.fixed_dictionaries({"detrend": st.just("quadratic")}),
@@ -939,6 +939,7 @@ def test_cli_hostile_file_exit_2_one_line_no_output(hostile_dir, case):
         (["--coherence", "1.2"], "coherence_threshold 1.2: pass a value in [0, 1)"),
         (["--w-max", "inf"], "empty or inverted, or not finite"),
         (["--wolves", "many"], "argument --wolves: invalid int value: 'many'"),
+        (["--seed", str(10**20)], "pass seed < 2**63"),  # was an OverflowError traceback
     ],
 )
 def test_cli_bad_options_exit_2_one_line(hostile_dir, args, fragment):

@@ -112,7 +112,9 @@ class IdentifySettings:
         _need_int("wolves", self.wolves, 4, "a grey wolf pack needs alpha, beta, delta and an "
                   "omega (the paper uses 50)")
         _need_int("iterations", self.iterations, 1, "the paper uses 500")
-        _need_int("seed", self.seed, None, "any integer")
+        _need_int("seed", self.seed, -(2**63), "a 64-bit integer")
+        if self.seed >= 2**63:  # jax.random.key takes a C long
+            raise ValueError(f"seed={self.seed!r}: pass seed < 2**63 (a 64-bit integer).")
         _need_int("n_frequencies", self.n_frequencies, 20, "the CIFER cost needs >= 20")
         _need_int("sk_iterations", self.sk_iterations, 0, "Sanathanan-Koerner passes")
         _need_int("polish_steps", self.polish_steps, 0, "L-BFGS steps")
