@@ -346,3 +346,30 @@ def test_splitmix_uniform_is_uniform_deterministic_and_key_dependent():
 def test_bad_rng_name_raises():
     with pytest.raises(ValueError, match="rng="):
         G.gwo(8, 2, rng="mersenne")
+
+
+def test_best_three_is_a_stable_argsort_with_ties_and_infinities():
+    rng = np.random.default_rng(0)
+    for trial in range(20):
+        n = int(rng.integers(4, 60))
+        fit = rng.choice([0.0, 1.0, 2.0, 3.0, np.inf], size=n) if trial % 2 else rng.normal(size=n)
+        pos = rng.normal(size=(n, 3))
+        got_pos, got_fit = G._best_three(jnp.asarray(pos), jnp.asarray(fit))
+        ref_pos, ref_fit = _np_top3(pos, fit)
+        np.testing.assert_array_equal(np.asarray(got_fit), ref_fit)
+        np.testing.assert_array_equal(np.asarray(got_pos), ref_pos)
+
+
+def test_run_inside_user_jit_and_without_compiler_options_gives_the_same_result(monkeypatch):
+    # The entry points compile with XLA:CPU options; called inside a user's jit they cannot
+    # (only a top-level jit takes options) and must fall back, with the same arithmetic.
+    cfg = CONFIGS["igwo-swap"]
+    key = jax.random.key(8)
+    ref = G.run(cfg, _rosen, LO, HI, key)
+    nested = jax.jit(lambda k: G.run(cfg, _rosen, LO, HI, k).best_position)(key)
+    np.testing.assert_allclose(np.asarray(nested), np.asarray(ref.best_position),
+                               rtol=1e-12, atol=1e-14)
+    monkeypatch.setattr(G, "_compiler_options", lambda: ())
+    plain = G.run(cfg, _rosen, LO, HI, key)
+    np.testing.assert_allclose(np.asarray(plain.history_best), np.asarray(ref.history_best),
+                               rtol=1e-12, atol=0)

@@ -52,3 +52,23 @@ def test_quartic_noise_is_reproducible_and_bounded():
     assert v1 == v2
     assert base <= v1 < base + 1.0
     assert float(T.QuarticNoise(jax.random.key(4))(x)) != v1
+
+
+@pytest.mark.parametrize("n_freq", [20, 32, 33, 200])
+def test_frequency_fit_matches_the_factored_response(n_freq):
+    # FrequencyFit expands the denominator in powers of w and sums in blocks of 32 (padding
+    # weighted 0); compare with the plain definition on the factored response.  Cancellation
+    # in the expanded polynomial near the resonances costs a few ulps, hence 1e-10.
+    from jaxgwo._transfer import paper_model_response
+
+    p = T.helicopter_problem(n_freq=n_freq)
+    obj = p.objective
+    target = np.asarray(obj.target_re) + 1j * np.asarray(obj.target_im)
+    rng = np.random.default_rng(n_freq)
+    lo, hi = np.asarray(p.lower()), np.asarray(p.upper())
+    for x in lo + rng.random((10, 5)) * (hi - lo):
+        g = np.asarray(paper_model_response(jnp.asarray(x), obj.w))
+        ref = np.mean(np.abs(g - target) ** 2 / np.abs(target) ** 2)
+        assert float(obj(jnp.asarray(x))) == pytest.approx(ref, rel=1e-10)
+    truth = jnp.asarray(T.HELICOPTER_TRUTH)
+    assert float(obj(truth)) < 1e-28

@@ -43,6 +43,7 @@ Non-finite fitness (an unstable candidate, an ill-conditioned solve) ranks as ``
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Literal
@@ -262,8 +263,22 @@ def _fitness(objective: Callable, positions: Array) -> Array:
 
 
 def _best_three(positions: Array, fitness: Array) -> tuple[Array, Array]:
-    neg, idx = jax.lax.top_k(-fitness, 3)
-    return positions[idx], -neg
+    """The three fittest rows, ranked as ``numpy.argsort(fitness, kind="stable")[:3]``.
+
+    Rank ``i`` is the number of rows that beat row ``i`` (lower fitness, or equal fitness and
+    a lower index), so ranks are a permutation and ties go to the earlier row, exactly as a
+    stable sort.  This is one fused comparison of an ``(n, n)`` block (n = wolves + 3), where
+    ``lax.top_k`` lowers to a full sort that XLA:CPU runs through a comparator callback; at
+    the pack sizes a GWO uses the block is cheaper and, under ``vmap``, stays vectorised.
+    """
+    n = fitness.shape[0]
+    i = jnp.arange(n, dtype=jnp.int32)  # int32 counts: half the work of the default int64
+    f_row, f_col = fitness[:, None], fitness[None, :]
+    beats = (f_col < f_row) | ((f_col == f_row) & (i[None, :] < i[:, None]))
+    rank = jnp.sum(beats, axis=1, dtype=jnp.int32)
+    first3 = rank[None, :] == jnp.arange(3, dtype=jnp.int32)[:, None]
+    idx = jnp.sum(jnp.where(first3, i[None, :], 0), axis=1, dtype=jnp.int32)
+    return positions[idx], fitness[idx]
 
 
 def _merge_leaders(state_leaders, state_fit, positions, fitness):
@@ -394,26 +409,46 @@ def step(
     return step_with_noise(config, objective, lower, upper, state, noise)
 
 
+class _Moved(eqx.Module):
+    """The part of an iteration that needs no fitness: the movers' new positions (all
+    wolves, or the chasers) and the fresh encircling group of ``grouping="reinit"``."""
+
+    positions: Float[Array, "movers dim"]
+    fresh: Float[Array, "encircle dim"]
+
+
+def _move_pack(config, lower, upper, state, noise: StepNoise) -> _Moved:
+    a = convergence_factor(config, state.iteration)
+    nc = config.wolves if config.grouping == "none" else config.chasers
+    positions = move(config, state.positions[:nc], state.leaders, a, noise.r1[:, :nc],
+                     noise.r2[:, :nc], noise.r_weight[:nc], lower, upper)
+    return _Moved(positions=positions, fresh=lower + noise.fresh * (upper - lower))
+
+
 def step_with_noise(config, objective, lower, upper, state, noise: StepNoise):
     """:func:`step` with its random numbers given; exposed so tests can feed a reference."""
+    return _evaluate_pack(config, objective, state, _move_pack(config, lower, upper, state,
+                                                               noise))
+
+
+def _evaluate_pack(config, objective, state, moved: _Moved):
+    """Evaluate the moved wolves and update the leaders (and the groups for IGWO)."""
     a = convergence_factor(config, state.iteration)
     nc = config.chasers
     if config.grouping == "none":
-        positions = move(config, state.positions, state.leaders, a, noise.r1, noise.r2,
-                         noise.r_weight, lower, upper)
+        positions = moved.positions
         fitness = _fitness(objective, positions)
         leaders, leader_fit = _merge_leaders(state.leaders, state.leader_fitness,
                                              positions, fitness)
         evals = config.wolves
     else:
-        chasers = move(config, state.positions[:nc], state.leaders, a, noise.r1[:, :nc],
-                       noise.r2[:, :nc], noise.r_weight[:nc], lower, upper)
+        chasers = moved.positions
         chaser_fit = _fitness(objective, chasers)
         if config.grouping == "swap":
             enc, enc_fit = state.positions[nc:], state.fitness[nc:]
             evals = nc
         else:  # "reinit": a fresh encircling group each iteration (Step 4, second reading)
-            enc = lower + noise.fresh * (upper - lower)
+            enc = moved.fresh
             enc_fit = _fitness(objective, enc)
             evals = config.wolves
         new_pos = jnp.concatenate([chasers, enc])
@@ -422,11 +457,17 @@ def step_with_noise(config, objective, lower, upper, state, noise: StepNoise):
                                              new_pos, new_fit)
         worst = jnp.argmax(chaser_fit)
         best_enc = nc + jnp.argmin(enc_fit)
+        # Row selects rather than a permutation gather: one fused select per array.
+        row = jnp.arange(config.wolves)
+        is_worst, is_best = row == worst, row == best_enc
         if config.grouping == "swap":  # trade places: worst chaser <-> best encircler
-            perm = jnp.arange(config.wolves).at[worst].set(best_enc).at[best_enc].set(worst)
+            positions = jnp.where(is_worst[:, None], new_pos[best_enc],
+                                  jnp.where(is_best[:, None], new_pos[worst], new_pos))
+            fitness = jnp.where(is_worst, new_fit[best_enc],
+                                jnp.where(is_best, new_fit[worst], new_fit))
         else:  # the best fresh wolf replaces the worst chaser
-            perm = jnp.arange(config.wolves).at[worst].set(best_enc)
-        positions, fitness = new_pos[perm], new_fit[perm]
+            positions = jnp.where(is_worst[:, None], new_pos[best_enc], new_pos)
+            fitness = jnp.where(is_worst, new_fit[best_enc], new_fit)
     new_state = GreyWolfState(
         positions=positions,
         fitness=fitness,
@@ -436,6 +477,53 @@ def step_with_noise(config, objective, lower, upper, state, noise: StepNoise):
         evaluations=state.evaluations + evals,
     )
     return new_state, (leader_fit[0], a)
+
+# XLA:CPU hands elementwise and reduction fusions to YNNPACK by default.  For the block a
+# frequency-domain objective evaluates (rows x frequencies, then a row mean) that runs each
+# operation as a separate tiled kernel and, past a few thousand rows, materialises the
+# intermediates: 3-10x slower than XLA's own fused loop on a 2-core CPU (benchmarks/
+# scaling.py).  Keeping YNNPACK for dots only restores the fused loop.
+_CPU_COMPILER_OPTIONS = {"xla_cpu_experimental_ynn_fusion_type": "LIBRARY_FUSION_TYPE_DOT"}
+
+
+@functools.cache
+def _compiler_options() -> tuple[tuple[str, str], ...]:
+    """The XLA options for the optimiser's jitted entry points on this backend ((), if the
+    backend is not a CPU or this XLA does not know the option)."""
+    if jax.default_backend() != "cpu":
+        return ()
+    try:
+        jax.jit(lambda x: x + 1.0, compiler_options=_CPU_COMPILER_OPTIONS).lower(
+            jnp.zeros(2)).compile()
+    except Exception:  # noqa: BLE001  (an XLA without the option: compile without it)
+        return ()
+    return tuple(_CPU_COMPILER_OPTIONS.items())
+
+
+def _filter_jit(fn):
+    """``equinox.filter_jit`` with :func:`_compiler_options`: array leaves of the arguments
+    are traced, everything else (configuration, callables, ``None``) is static and hashed."""
+
+    @functools.cache
+    def jitted(options):
+        def call(static, dynamic):
+            return fn(*eqx.combine(dynamic, static))
+
+        return jax.jit(call, static_argnums=0, compiler_options=dict(options) or None)
+
+    @functools.wraps(fn)
+    def wrapper(*args):
+        dynamic, static = eqx.partition(args, eqx.is_array)
+        try:
+            return jitted(_compiler_options())(static, dynamic)
+        except ValueError as err:
+            # Called inside another trace (vmap of run, sharding): only a top-level jit
+            # takes options, and the outer one decides.
+            if "compiler_options" not in str(err):
+                raise
+            return jitted(())(static, dynamic)
+
+    return wrapper
 
 
 def _strong(tree):
@@ -493,16 +581,27 @@ def _check_problem(config, lower, upper, init_wolves):
     return lower, upper, init_wolves
 
 
-@eqx.filter_jit
+@_filter_jit
 def _run(config, objective, lower, upper, key, init_wolves, keep_history):
     k_init, k_run = jax.random.split(key)
     state = init(config, objective, lower, upper, k_init, init_wolves)
+    keys = jax.random.split(k_run, config.iterations)
+    dim = lower.shape[0]
 
-    def body(s, k):
-        s, (best, a) = step(config, objective, lower, upper, s, k)
-        return s, ((best, a) if keep_history else None)
+    # Software-pipelined: iteration t evaluates the pack moved at the end of t - 1 and then
+    # moves the pack for t + 1 with the new leaders.  The moved pack is loop-carried, so XLA
+    # computes the move (and its random numbers) once instead of fusing a copy into each
+    # consumer; the arithmetic, and so the result, is that of calling :func:`step` T times.
+    def body(carry, k_next):
+        s, moved = carry
+        s, (best, a) = _evaluate_pack(config, objective, s, moved)
+        moved = _move_pack(config, lower, upper, s, draw_step_noise(config, k_next, dim))
+        return (s, moved), ((best, a) if keep_history else None)
 
-    state, hist = jax.lax.scan(body, state, jax.random.split(k_run, config.iterations))
+    moved = _move_pack(config, lower, upper, state, draw_step_noise(config, keys[0], dim))
+    # the last iteration moves once more, for nothing, with a recycled key
+    next_keys = jnp.concatenate([keys[1:], keys[:1]])
+    (state, _), hist = jax.lax.scan(body, (state, moved), next_keys)
     hb, ha = hist if keep_history else (None, None)
     return GreyWolfResult(
         best_position=state.leaders[0],
@@ -566,7 +665,7 @@ def run_seeds(
     return _run_seeds(config, objective, lower, upper, keys, init_wolves, keep_history)
 
 
-@eqx.filter_jit
+@_filter_jit
 def _run_seeds(config, objective, lower, upper, keys, init_wolves, keep_history):
     return jax.vmap(
         lambda k: _run(config, objective, lower, upper, k, init_wolves, keep_history)
@@ -606,7 +705,7 @@ def run_batch(
     return _run_batch(config, objectives, lower, upper, keys, init_wolves, keep_history)
 
 
-@eqx.filter_jit
+@_filter_jit
 def _run_batch(config, objectives, lower, upper, keys, init_wolves, keep_history):
     def one(obj, lo, hi, k, iw):
         return _run(config, obj, lo, hi, k, iw, keep_history)
