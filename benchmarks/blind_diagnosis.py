@@ -1,0 +1,381 @@
+"""Blind study of the sim-to-real gap diagnosis (issue 5).
+
+    python benchmarks/blind_diagnosis.py                    # 8 cases per effect and of none (72)
+    python benchmarks/blind_diagnosis.py --cases-per-effect 3
+    python benchmarks/blind_diagnosis.py --quick            # 1 case per class, small optimiser
+
+Phase 1 (simulate): for each case a seeded NumPy generator and a JAX key draw an effect
+(or none; every class equally often, order shuffled), a plant (a randomised paper plant,
+or with ``--r50-fraction`` an R-50 variant flown with its hold loop), its effect
+parameters from the realistic ranges of ``jaxgwo._effects.EFFECTS``, gusts, sensor noise
+and the excitation (TRAIN: two lateral sweeps of different amplitude with off-axis pilot
+activity; VAL: two 3-2-1-1s and a doublet).  The records go to ``WORKDIR/case_NNN/``
+as CSV; the answers go to ``WORKDIR/key.json``, which phase 2 never opens.
+
+Phase 2 (diagnose): every case's CSVs are loaded and diagnosed with
+``jaxgwo._diagnose.diagnose`` (the function behind ``jaxgwo diagnose``); only the
+verdict, ranking and JSON report are kept.
+
+Phase 3 (score): the key is opened; confusion matrix, top-1/top-2 accuracy, false alarms
+on none, parameter errors, and the VAL R^2 of the augmented model against the true model
+(the simulator without gusts and noise, same VAL excitation).  Writes
+``benchmarks/results/blind_diagnosis.md`` and ``.png``.  One progress line per case.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CLASSES = ("none", "time_delay", "sensor_lag", "rotor_flapping", "cross_coupling", "structural_mode", "rate_limit",
+           "backlash", "saturation")  # fmt: skip
+FS = 100.0
+SWEEP_S = 25.0
+TRAIN_S = 3 + SWEEP_S + 2 + SWEEP_S + 2
+VAL_S = 24.0
+
+
+def _excitation(rng, key, n_train, n_val):
+    """TRAIN and VAL cyclic excitations ``(n, 2)`` (lateral on-axis, longitudinal off-axis)."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxgwo._signals import doublet, frequency_sweep, multistep_3211, pilot_corrections
+
+    k = jax.random.split(key, 4)
+    a_hi = float(rng.uniform(0.12, 0.3))
+    a_lo = a_hi / float(rng.uniform(2.0, 3.0))
+    f_hi = float(rng.uniform(8.0, 12.0))
+    off_rms = float(rng.uniform(0.01, 0.03))
+    t = jnp.arange(n_train, dtype=jnp.float64) / FS
+    sw = frequency_sweep(t, f_start_hz=0.3, f_stop_hz=f_hi, duration_s=SWEEP_S, amplitude=a_lo, start_s=3.0)
+    sw = sw + frequency_sweep(t, f_start_hz=0.3, f_stop_hz=f_hi, duration_s=SWEEP_S, amplitude=a_hi, start_s=5.0 + SWEEP_S)
+    train = jnp.stack([sw, pilot_corrections(k[0], n_train, FS, rms=off_rms)], axis=1)
+    tv = jnp.arange(n_val, dtype=jnp.float64) / FS
+    a_v = float(rng.uniform(0.5, 0.9)) * a_hi
+    unit = float(rng.uniform(0.2, 0.4))
+    lat = (multistep_3211(tv, amplitude=a_v, unit_s=unit, start_s=1.0)
+           + multistep_3211(tv, amplitude=0.6 * a_v, unit_s=0.12, start_s=10.0)
+           + doublet(tv, amplitude=a_v, pulse_s=float(rng.uniform(0.3, 0.6)), start_s=16.0)
+           + pilot_corrections(k[1], n_val, FS, rms=0.3 * off_rms))  # fmt: skip
+    val = jnp.stack([lat, pilot_corrections(k[2], n_val, FS, rms=off_rms)], axis=1)
+    return train, val, {"sweep_amplitudes": [a_lo, a_hi], "sweep_f_hi_hz": f_hi, "off_axis_rms": off_rms,
+                        "val_amplitude": a_v, "val_unit_s": unit}  # fmt: skip
+
+
+def simulate_cases(n_per_class: int, seed: int, workdir: str, r50_fraction: float) -> list[str]:
+    """Phase 1: write every case's TRAIN/VAL CSVs and the separate key file."""
+    import jax
+
+    from jaxgwo._data import save_record
+    from jaxgwo._plants import draw_paper_plant, draw_r50_plant
+    from jaxgwo._simulate import Disturbance, HoldLoop, simulate
+
+    rng = np.random.default_rng(seed)
+    labels = [c for c in CLASSES for _ in range(n_per_class)]
+    rng.shuffle(labels)
+    keys = jax.random.split(jax.random.key(seed), len(labels))
+    n_train, n_val = int(TRAIN_S * FS), int(VAL_S * FS)
+    key_doc = {}
+    dirs = []
+    for i, (label, k) in enumerate(zip(labels, keys)):
+        crng = np.random.default_rng([seed, i])
+        k_plant, k_exc, k_tr, k_va = jax.random.split(k, 4)
+        r50 = bool(crng.uniform() < r50_fraction)
+        names = () if label == "none" else (label,)
+        if r50:
+            hold = HoldLoop.r50()
+            draw = draw_r50_plant(k_plant, effects=names, axis="lateral", hold=hold)
+        else:
+            hold = None
+            draw = draw_paper_plant(k_plant, effects=names, axis="lateral")
+        exc_tr, exc_va, exc_meta = _excitation(crng, k_exc, n_train, n_val)
+        dist = Disturbance(gust_rms=float(crng.uniform(0.02, 0.12)), snr_db=float(crng.uniform(25.0, 40.0)))
+        tr = simulate(draw.plant, exc_tr, k_tr, sample_rate_hz=FS, disturbance=dist, effects=draw.effects, hold=hold)
+        va = simulate(draw.plant, exc_va, k_va, sample_rate_hz=FS, disturbance=dist, effects=draw.effects, hold=hold)
+        # the true model on VAL: the same plant and effect without gusts and noise
+        va_true = simulate(draw.plant, exc_va, k_va, sample_rate_hz=FS, effects=draw.effects, hold=hold)
+        d = os.path.join(workdir, f"case_{i:03d}")
+        os.makedirs(d, exist_ok=True)
+        save_record(tr.to_record(), os.path.join(d, "train.csv"))
+        save_record(va.to_record(), os.path.join(d, "val.csv"))
+        np.save(os.path.join(workdir, f"truth_{i:03d}.npy"), np.asarray(va_true.rate_clean[:, 0]))
+        params = {}
+        exercised = None
+        if label != "none":
+            eff = getattr(draw.effects, label)
+            from jaxgwo._effects import EFFECTS
+
+            params = {p: float(np.asarray(getattr(eff, p))[0]) for p in EFFECTS[label].params}
+            servo = np.asarray(tr.servo[:, 0])
+            if label == "saturation":
+                exercised = float(np.mean(np.abs(servo) >= 0.999 * params["limit"]))
+            elif label == "rate_limit":
+                exercised = float(np.mean(np.abs(np.diff(servo)) * FS >= 0.99 * params["rate"]))
+        plant = draw.plant
+        key_doc[f"case_{i:03d}"] = {
+            "effect": label, "params": params, "plant": "r50" if r50 else "paper",
+            "paper_params": None if r50 else [float(v) for v in np.asarray(plant.lateral)],
+            "gust_rms": float(np.asarray(dist.gust_rms)[0]), "snr_db": float(np.asarray(dist.snr_db)[0]),
+            "exercised_fraction": exercised, **exc_meta,
+        }  # fmt: skip
+        dirs.append(d)
+        print(f"[sim {i + 1}/{len(labels)}] case_{i:03d} written", flush=True)
+    with open(os.path.join(workdir, "key.json"), "w") as f:
+        json.dump(key_doc, f, indent=1)
+    return dirs
+
+
+def diagnose_cases(dirs: list[str], settings, out_json: str) -> dict:
+    """Phase 2: diagnose each case from its CSVs only (the key is not opened here)."""
+    from jaxgwo._data import load_record
+    from jaxgwo._diagnose import diagnose
+
+    results = {}
+    for i, d in enumerate(dirs):
+        name = os.path.basename(d)
+        t0 = time.perf_counter()
+        train = [load_record(os.path.join(d, "train.csv"))]
+        val = [load_record(os.path.join(d, "val.csv"))]
+        rep = diagnose(train, val, "lateral", settings)
+        doc = rep.to_json()
+        doc["wall_s"] = time.perf_counter() - t0
+        results[name] = doc
+        top2 = ", ".join(c["effect"] for c in doc["ranking"][:2])
+        print(f"[diagnose {i + 1}/{len(dirs)}] {name}: verdict {doc['verdict']:<16s} (top-2: {top2}) "
+              f"{doc['wall_s']:.1f} s", flush=True)  # fmt: skip
+        with open(out_json, "w") as f:
+            json.dump(results, f)
+    return results
+
+
+def _r2(y, p):
+    """R^2 of ``p`` (from rest) against ``y`` taken relative to its trim, as the diagnosis does."""
+    y = np.asarray(y, float)
+    y = y - np.mean(y[: int(0.5 * FS)])
+    p = np.asarray(p, float)
+    return 1.0 - float(np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2))
+
+
+def _param_error(effect: str, truth: dict, fit: dict) -> tuple[str, float]:
+    if effect == "time_delay":
+        return "abs error (ms)", 1e3 * abs(fit["delay_s"] - truth["delay_s"])
+    if effect == "cross_coupling":
+        return "abs error", abs(fit["gain"] - truth["gain"])
+    p = {"sensor_lag": "cutoff_hz", "rotor_flapping": "tau_f", "structural_mode": "freq_hz", "rate_limit": "rate",
+         "backlash": "width", "saturation": "limit"}[effect]  # fmt: skip
+    return f"rel error of {p} (%)", 100.0 * abs(fit[p] - truth[p]) / abs(truth[p])
+
+
+def score(workdir: str, results: dict) -> dict:
+    """Phase 3: open the key and score."""
+    from jaxgwo._data import load_record
+
+    with open(os.path.join(workdir, "key.json")) as f:
+        key = json.load(f)
+    idx = {c: i for i, c in enumerate(CLASSES)}
+    conf = np.zeros((len(CLASSES), len(CLASSES)), int)
+    rows = []
+    for name, doc in results.items():
+        k = key[name]
+        truth = k["effect"]
+        verdict = doc["verdict"]
+        conf[idx[truth], idx[verdict]] += 1
+        ranked = [c["effect"] for c in doc["ranking"] if c["beats_noise"]]
+        top2 = verdict == truth if truth == "none" else truth in ranked[:2]
+        y = np.asarray(load_record(os.path.join(workdir, name, "val.csv"))["p"], float)
+        r2_true = _r2(y, np.load(os.path.join(workdir, f"truth_{name[5:]}.npy")))
+        r2_nom = doc["nominal"]["val_r2"]
+        r2_top = doc["ranking"][0]["val_r2"] if verdict != "none" else r2_nom
+        perr = None
+        if truth != "none":
+            cand = next((c for c in doc["ranking"] if c["effect"] == truth), None)
+            if cand is not None:
+                perr = _param_error(truth, k["params"], cand["params"])
+        rows.append({"case": name, "truth": truth, "verdict": verdict, "top1": verdict == truth, "top2": bool(top2),
+                     "r2_nominal": r2_nom, "r2_after": r2_top, "r2_true": r2_true, "param_error": perr,
+                     "exercised": k.get("exercised_fraction"), "plant": k["plant"], "snr_db": k["snr_db"],
+                     "wall_s": doc["wall_s"]})  # fmt: skip
+    return {"confusion": conf, "rows": rows}
+
+
+def write_report(sc: dict, args, out_dir: str, elapsed: float) -> None:
+    import jax
+
+    import jaxgwo
+    from jaxgwo._atomic import atomic_write_text
+
+    rows, conf = sc["rows"], sc["confusion"]
+    eff_rows = [r for r in rows if r["truth"] != "none"]
+    none_rows = [r for r in rows if r["truth"] == "none"]
+    top1 = np.mean([r["top1"] for r in eff_rows]) if eff_rows else float("nan")
+    top2 = np.mean([r["top2"] for r in eff_rows]) if eff_rows else float("nan")
+    fa = np.mean([r["verdict"] != "none" for r in none_rows]) if none_rows else float("nan")
+    short = {"none": "none", "time_delay": "delay", "sensor_lag": "s.lag", "rotor_flapping": "flap",
+             "cross_coupling": "cross", "structural_mode": "struct", "rate_limit": "rate", "backlash": "backl",
+             "saturation": "sat"}  # fmt: skip
+    L = ["# Blind sim-to-real diagnosis study", ""]
+    L.append(f"`python benchmarks/blind_diagnosis.py {' '.join(sys.argv[1:])}`".replace("  ", " "))
+    L.append("")
+    L.append(f"{len(rows)} cases ({args.cases_per_effect} per class x {len(CLASSES)} classes), seed {args.seed}; "
+             f"{platform.node() or 'host'} ({platform.machine()}, {os.cpu_count()} cores), JAX {jax.__version__}, "
+             f"float64, jaxgwo {getattr(jaxgwo, '__version__', '?')}; total wall {elapsed / 60:.1f} min, "
+             f"median diagnosis {np.median([r['wall_s'] for r in rows]):.1f} s per case.")  # fmt: skip
+    L.append("")
+    L.append("Each case: a randomised plant (paper model; R-50 variants with their hold loop for "
+             f"{100 * args.r50_fraction:.0f} % of cases), one effect (or none) with parameters drawn from the realistic "
+             "ranges of `jaxgwo._effects.EFFECTS`, gusts 0.02-0.12 rad/s^2, SNR 25-40 dB; TRAIN two 25 s lateral "
+             "sweeps 0.3-(8..12) Hz at amplitudes differing x2-3 (high 0.12-0.3) with off-axis pilot activity; "
+             "VAL 24 s of 3-2-1-1s and a doublet. The diagnosis sees only the CSVs.")  # fmt: skip
+    L.append("")
+    L.append("| measure | value | target |")
+    L.append("|---|---|---|")
+    L.append(f"| top-1 accuracy over effects | {100 * top1:.0f} % ({sum(r['top1'] for r in eff_rows)}/{len(eff_rows)}) | >= 85 % |")
+    L.append(f"| top-2 accuracy over effects | {100 * top2:.0f} % ({sum(r['top2'] for r in eff_rows)}/{len(eff_rows)}) | >= 95 % |")
+    L.append(f"| false alarms on none | {100 * fa:.0f} % ({sum(r['verdict'] != 'none' for r in none_rows)}/{len(none_rows)}) | 0 % |")
+    overall = np.mean([r["top1"] for r in rows])
+    L.append(f"| top-1 over all cases incl. none | {100 * overall:.0f} % | |")
+    L.append("")
+    L.append("## Confusion matrix (rows: truth, columns: verdict)")
+    L.append("")
+    L.append("| truth \\ verdict | " + " | ".join(short[c] for c in CLASSES) + " |")
+    L.append("|---|" + "---|" * len(CLASSES))
+    for i, c in enumerate(CLASSES):
+        L.append(f"| {c} | " + " | ".join(str(v) if v else "." for v in conf[i]) + " |")
+    L.append("")
+    L.append("## Per effect")
+    L.append("")
+    L.append("| effect | top-1 | top-2 | parameter error (median, max) | fraction of gap closed vs true model (mean) | "
+             "\\|R2_after - R2_true\\| (median, max) |")  # fmt: skip
+    L.append("|---|---|---|---|---|---|")
+    for c in CLASSES:
+        rs = [r for r in rows if r["truth"] == c]
+        if not rs:
+            continue
+        errs = [r["param_error"][1] for r in rs if r["param_error"] is not None]
+        what = next((r["param_error"][0] for r in rs if r["param_error"] is not None), "")
+        pe = f"{what}: {np.median(errs):.3g}, {np.max(errs):.3g}" if errs else "-"
+        fr = [(r["r2_after"] - r["r2_nominal"]) / (r["r2_true"] - r["r2_nominal"]) for r in rs
+              if r["r2_true"] - r["r2_nominal"] > 1e-3]  # fmt: skip
+        fr_s = f"{np.mean(fr):.2f} (n={len(fr)})" if fr else "- (true model no better than nominal)"
+        dr = [abs(r["r2_after"] - r["r2_true"]) for r in rs]
+        L.append(f"| {c} | {sum(r['top1'] for r in rs)}/{len(rs)} | {sum(r['top2'] for r in rs)}/{len(rs)} | {pe} | "
+                 f"{fr_s} | {np.median(dr):.3f}, {np.max(dr):.3f} |")  # fmt: skip
+    L.append("")
+    L.append("Parameter errors are those of the true effect's candidate wherever it ranks. Fraction of gap closed: "
+             "(R2_after - R2_nominal) / (R2_true - R2_nominal) on VAL, where R2_after is the top candidate's "
+             "(the nominal's when the verdict is none) and R2_true that of the simulator without gusts and noise; "
+             "cases where the true model is no better than the nominal on VAL are left out of that mean.")  # fmt: skip
+    L.append("")
+    L.append("## Cases")
+    L.append("")
+    L.append("| case | plant | truth | verdict | top-2 | SNR dB | R2 nominal | R2 after | R2 true | param error | exercised |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        pe = f"{r['param_error'][1]:.3g}" if r["param_error"] else "-"
+        ex = f"{r['exercised']:.3f}" if r["exercised"] is not None else "-"
+        L.append(f"| {r['case']} | {r['plant']} | {r['truth']} | {r['verdict']} | {'yes' if r['top2'] else 'no'} | "
+                 f"{r['snr_db']:.0f} | {r['r2_nominal']:.4f} | {r['r2_after']:.4f} | {r['r2_true']:.4f} | {pe} | {ex} |")  # fmt: skip
+    L.append("")
+    L.append("`exercised`: fraction of TRAIN samples where the saturation limit or rate limit is reached (from the "
+             "simulator's servo log, kept in the key).")
+    atomic_write_text(os.path.join(out_dir, "blind_diagnosis.md"), "\n".join(L) + "\n")
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from jaxgwo._atomic import atomic_savefig
+
+    fig, ax = plt.subplots(1, 2, figsize=(13, 5.5))
+    frac = conf / np.maximum(conf.sum(axis=1, keepdims=True), 1)
+    ax[0].imshow(frac, cmap="Blues", vmin=0, vmax=1)
+    for i in range(len(CLASSES)):
+        for j in range(len(CLASSES)):
+            if conf[i, j]:
+                ax[0].text(j, i, str(conf[i, j]), ha="center", va="center", color="w" if frac[i, j] > 0.5 else "k")
+    ax[0].set_xticks(range(len(CLASSES)), [short[c] for c in CLASSES], rotation=45)
+    ax[0].set_yticks(range(len(CLASSES)), [short[c] for c in CLASSES])
+    ax[0].set_xlabel("verdict")
+    ax[0].set_ylabel("truth")
+    ax[0].set_title(f"top-1 {100 * top1:.0f} %, top-2 {100 * top2:.0f} %, false alarms {100 * fa:.0f} %")
+    for c in CLASSES[1:]:
+        rs = [r for r in rows if r["truth"] == c]
+        ax[1].scatter([r["r2_true"] for r in rs], [r["r2_after"] for r in rs], label=short[c], s=18)
+    lims = [min(r["r2_nominal"] for r in rows) - 0.01, 1.0]
+    ax[1].plot(lims, lims, "k:", lw=0.8)
+    ax[1].set_xlim(lims)
+    ax[1].set_ylim(lims)
+    ax[1].set_xlabel("VAL R^2 of the true model")
+    ax[1].set_ylabel("VAL R^2 after diagnosis (top candidate)")
+    ax[1].legend(fontsize=7)
+    fig.tight_layout()
+    atomic_savefig(fig, os.path.join(out_dir, "blind_diagnosis.png"))
+    plt.close(fig)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--cases-per-effect", type=int, default=8, help="cases per effect and of none")
+    ap.add_argument("--quick", action="store_true", help="1 case per class and the CI-sized optimiser")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--r50-fraction", type=float, default=0.0, help="fraction of cases on R-50 variants")
+    ap.add_argument("--workdir", default=None, help="where records and the key go (default: a temp dir)")
+    ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    ap.add_argument("--reuse", action="store_true", help="diagnose the cases already in --workdir (no new simulation)")
+    ap.add_argument("--limit", type=int, default=None, help="diagnose only the first N cases")
+    ap.add_argument("--simulate-only", action="store_true", help="write the cases and the key, then stop")
+    args = ap.parse_args()
+    if args.quick:
+        args.cases_per_effect = 1
+
+    import jaxgwo  # noqa: F401  (float64)
+    from jaxgwo._diagnose import DiagnoseSettings
+    from jaxgwo._identify import IdentifySettings
+
+    if args.quick:
+        settings = DiagnoseSettings(
+            identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80,
+                                      polish_steps=30, w_max=120.0),
+            wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6,
+        )  # fmt: skip
+    else:
+        settings = DiagnoseSettings(
+            identify=IdentifySettings(method="wls-igwo+polish", wolves=12, iterations=30, n_frequencies=80,
+                                      polish_steps=40, w_max=120.0),
+            wolves=12, iterations=30,
+        )  # fmt: skip
+    workdir = args.workdir or tempfile.mkdtemp(prefix="blind_diagnosis_")
+    os.makedirs(workdir, exist_ok=True)
+    os.makedirs(args.out, exist_ok=True)
+    print(f"workdir {workdir}", flush=True)
+    t0 = time.perf_counter()
+    if args.reuse:
+        with open(os.path.join(workdir, "key.json")) as f:
+            dirs = [os.path.join(workdir, name) for name in json.load(f)]  # only the case names are read here
+    else:
+        dirs = simulate_cases(args.cases_per_effect, args.seed, workdir, args.r50_fraction)
+        if args.simulate_only:
+            return 0
+    dirs = dirs[: args.limit]
+    results = diagnose_cases(dirs, settings, os.path.join(workdir, "diagnoses.json"))
+    sc = score(workdir, results)
+    write_report(sc, args, args.out, time.perf_counter() - t0)
+    r = sc["rows"]
+    print(f"top-1 {np.mean([x['top1'] for x in r if x['truth'] != 'none']):.2f}, "
+          f"false alarms {np.mean([x['verdict'] != 'none' for x in r if x['truth'] == 'none']):.2f}; "
+          f"wrote {os.path.join(args.out, 'blind_diagnosis.md')}")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
