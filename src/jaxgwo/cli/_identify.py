@@ -245,14 +245,13 @@ def _identify_with_progress(by_channel, settings, validation, quiet):
     from .._progress import Progress
 
     channels = list(by_channel)
+    # held-out records are checked before anything compiles
+    I._check_validation(validation, channels, settings)
     with Progress(len(channels) + 1, "identify", "stages", quiet=quiet, eta=False) as bar:
         preps = []
         for i, ch in enumerate(channels):
             bar.update(i, f"{ch}: frequency response, WLS start")
             preps.append(I._prepare(list(by_channel[ch]), ch, settings))
-        check = getattr(I, "_check_validation", None)  # held-out records checked up front
-        if check is not None:
-            check(validation, channels, settings)
         bar.update(len(channels), f"{settings.method}: {len(channels)} channel(s) in one "
                    "call" + (", validation" if validation else ""))
         results = I._identify_prepared(preps, settings, validation)
