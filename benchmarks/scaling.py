@@ -49,6 +49,17 @@ LABEL = {"freq": "frequency points", "wolves": "wolves", "iterations": "iteratio
          "batch": "batch size (seeds per call)"}
 
 
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
 def measure(freq: int, wolves: int, iterations: int, batch: int, repeats: int) -> dict:
     prob = helicopter_problem(n_freq=freq)
     lo, hi = prob.lower(), prob.upper()
@@ -105,7 +116,7 @@ def main() -> int:
         f"Command: `python benchmarks/scaling.py{' --quick' if args.quick else ''}` "
         f"({wall:.0f} s).",
         "",
-        f"Machine: {platform.machine()} {platform.processor() or ''}, {os.cpu_count()} CPUs; "
+        f"Machine: {platform.machine()} {cpu_model()}, {os.cpu_count()} CPUs; "
         f"load average {load_start[0]:.2f} at start, {load_end[0]:.2f} at end; "
         f"JAX {jax.__version__} on {jax.default_backend()}; float64.  Reference shape: "
         f"{REF['freq']} frequency points, {REF['wolves']} wolves, {REF['iterations']} "

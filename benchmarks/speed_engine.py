@@ -58,6 +58,7 @@ import numpy as np  # noqa: E402
 
 import jaxgwo  # noqa: E402
 from jaxgwo._atomic import atomic_write_text  # noqa: E402
+from jaxgwo._gwo import _compiler_options  # noqa: E402
 from jaxgwo._testfunctions import helicopter_problem  # noqa: E402
 
 sys.path.insert(0, HERE)
@@ -95,6 +96,17 @@ def c_floor(n_freq: int, evals: int) -> tuple[float, float] | None:
     return float(out[0]) * 1e-3, float(out[1]) * 1e-3
 
 
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
 def main() -> int:
     args = ARGS
     load_start = os.getloadavg()
@@ -125,7 +137,9 @@ def main() -> int:
 
     evals = configs["GWO"].total_evaluations
     X = lo + jax.random.uniform(jax.random.key(3), (evals, 5)) * (hi - lo)
-    objective_only = jax.jit(jax.vmap(prob.objective))
+    # the options the engine compiles with (YNNPACK off for eltwise/reduce on CPU)
+    objective_only = jax.jit(jax.vmap(prob.objective),
+                             compiler_options=dict(_compiler_options()) or None)
     objective_only(X).block_until_ready()
 
     singles = {"numpy": numpy_run, "objective": lambda: objective_only(X).block_until_ready()}
@@ -144,7 +158,7 @@ def main() -> int:
         "",
         f"Command: `python benchmarks/speed_engine.py{' --cpus %d' % args.cpus if args.cpus else ''}`",
         "",
-        f"Machine: {platform.machine()} {platform.processor() or ''}, {os.cpu_count()} CPUs "
+        f"Machine: {platform.machine()} {cpu_model()}, {os.cpu_count()} CPUs "
         f"({cpus} used); load average {load_start[0]:.2f} at start, {load_end[0]:.2f} at "
         f"end; JAX {jax.__version__} on {jax.default_backend()}; float64; medians of "
         f"{args.repeats} (single) and {args.batch_repeats} (batch of {args.batch}) repeats, "

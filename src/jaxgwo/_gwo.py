@@ -265,19 +265,30 @@ def _fitness(objective: Callable, positions: Array) -> Array:
 def _best_three(positions: Array, fitness: Array) -> tuple[Array, Array]:
     """The three fittest rows, ranked as ``numpy.argsort(fitness, kind="stable")[:3]``.
 
-    Rank ``i`` is the number of rows that beat row ``i`` (lower fitness, or equal fitness and
-    a lower index), so ranks are a permutation and ties go to the earlier row, exactly as a
-    stable sort.  This is one fused comparison of an ``(n, n)`` block (n = wolves + 3), where
-    ``lax.top_k`` lowers to a full sort that XLA:CPU runs through a comparator callback; at
-    the pack sizes a GWO uses the block is cheaper and, under ``vmap``, stays vectorised.
+    Up to 64 rows: rank ``i`` is the number of rows that beat row ``i`` (lower fitness, or
+    equal fitness and a lower index), so ranks are a permutation and ties go to the earlier
+    row, exactly as a stable sort.  That is one fused comparison of an ``(n, n)`` block,
+    where ``lax.top_k`` lowers to a full sort that XLA:CPU runs through a comparator
+    callback (about 4x slower per seed under ``vmap``).  The block grows as ``n**2``, so
+    larger packs take three passes of "first row of least fitness not yet taken", ``O(n)``.
     """
     n = fitness.shape[0]
     i = jnp.arange(n, dtype=jnp.int32)  # int32 counts: half the work of the default int64
-    f_row, f_col = fitness[:, None], fitness[None, :]
-    beats = (f_col < f_row) | ((f_col == f_row) & (i[None, :] < i[:, None]))
-    rank = jnp.sum(beats, axis=1, dtype=jnp.int32)
-    first3 = rank[None, :] == jnp.arange(3, dtype=jnp.int32)[:, None]
-    idx = jnp.sum(jnp.where(first3, i[None, :], 0), axis=1, dtype=jnp.int32)
+    if n <= 64:
+        f_row, f_col = fitness[:, None], fitness[None, :]
+        beats = (f_col < f_row) | ((f_col == f_row) & (i[None, :] < i[:, None]))
+        rank = jnp.sum(beats, axis=1, dtype=jnp.int32)
+        first3 = rank[None, :] == jnp.arange(3, dtype=jnp.int32)[:, None]
+        idx = jnp.sum(jnp.where(first3, i[None, :], 0), axis=1, dtype=jnp.int32)
+    else:
+        free = jnp.ones(n, dtype=bool)
+        picks = []
+        for _ in range(3):
+            least = jnp.min(jnp.where(free, fitness, jnp.inf))
+            j = jnp.min(jnp.where(free & (fitness == least), i, n))
+            free = free & (i != j)
+            picks.append(j)
+        idx = jnp.stack(picks)
     return positions[idx], fitness[idx]
 
 
