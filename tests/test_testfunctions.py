@@ -54,7 +54,7 @@ def test_quartic_noise_is_reproducible_and_bounded():
     assert float(T.QuarticNoise(jax.random.key(4))(x)) != v1
 
 
-@pytest.mark.parametrize("n_freq", [20, 32, 33, 200])
+@pytest.mark.parametrize("n_freq", [20, 32, 33, 200, 1025, 2000])
 def test_frequency_fit_matches_the_factored_response(n_freq):
     # FrequencyFit expands the denominator in powers of w and sums in blocks of 32 (padding
     # weighted 0); compare with the plain definition on the factored response.  Cancellation

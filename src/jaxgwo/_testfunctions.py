@@ -176,18 +176,23 @@ HELICOPTER_LOWER = (10.0, 0.01, 25.0, 25.0, 0.1)
 HELICOPTER_UPPER = (1000.0, 1.0, 625.0, 80.0, 1.5)
 
 
-# Frequencies per block of the objective's row sum.  XLA rewrites a reduction over more than
-# 32 elements into a windowed tree reduction that it cannot fuse with the elementwise work,
-# so the (rows x frequencies) block would be written to memory and read back; summing
-# blocks of 32 and then the blocks keeps it in one fused loop (benchmarks/scaling.py).
+# Frequencies per block of the objective's row sum.  XLA rewrites a reduction with a
+# dimension longer than 32 into a windowed tree reduction that it cannot fuse with the
+# elementwise work, so the (rows x frequencies) block would be written to memory and read
+# back.  Shaping the frequencies as (blocks, 32), or (blocks, 32, 32) past 1,024 points,
+# keeps every reduced dimension at 32 or less and the whole objective in one fused loop
+# (benchmarks/scaling.py).  Padding carries weight 0.
 _BLOCK = 32
 
 
 def _blocks(v: Array, fill: float) -> Array:
-    """``v`` padded with ``fill`` to a multiple of :data:`_BLOCK` and shaped ``(-1, _BLOCK)``."""
-    pad = -v.shape[-1] % _BLOCK
-    v = jnp.concatenate([v, jnp.full((pad,), fill, dtype=v.dtype)])
-    return v.reshape(-1, _BLOCK)
+    """``v`` padded with ``fill`` and shaped so that no dimension exceeds :data:`_BLOCK`
+    (up to 32,768 points; beyond that the leading dimension is longer)."""
+    n = v.shape[-1]
+    tile = (_BLOCK,) if n <= _BLOCK * _BLOCK else (_BLOCK, _BLOCK)
+    size = math.prod(tile)
+    v = jnp.concatenate([v, jnp.full((-n % size,), fill, dtype=v.dtype)])
+    return v.reshape((-1, *tile))
 
 
 class FrequencyFit(eqx.Module):
@@ -215,12 +220,12 @@ class FrequencyFit(eqx.Module):
     target_re: Float[Array, " freq"]
     target_im: Float[Array, " freq"]
     inv_mag2: Float[Array, " freq"]
-    # blocked copies, (blocks, 32); padding has weight 0
-    w_blocks: Float[Array, "blocks 32"]
-    w2_blocks: Float[Array, "blocks 32"]
-    re_blocks: Float[Array, "blocks 32"]
-    im_blocks: Float[Array, "blocks 32"]
-    weight_blocks: Float[Array, "blocks 32"]
+    # blocked copies, (blocks, 32) or (blocks, 32, 32); padding has weight 0
+    w_blocks: Float[Array, "*blocks"]
+    w2_blocks: Float[Array, "*blocks"]
+    re_blocks: Float[Array, "*blocks"]
+    im_blocks: Float[Array, "*blocks"]
+    weight_blocks: Float[Array, "*blocks"]
 
     @classmethod
     def from_response(cls, w, target) -> FrequencyFit:
@@ -257,7 +262,7 @@ class FrequencyFit(eqx.Module):
         e_re = num - (g_re * d_re - g_im * d_im)
         e_im = g_re * d_im + g_im * d_re
         terms = (e_re * e_re + e_im * e_im) * self.weight_blocks / (d_re * d_re + d_im * d_im)
-        return jnp.sum(jnp.sum(terms, axis=1))
+        return jnp.sum(terms)
 
 
 def helicopter_problem(n_freq: int = 200, w_min: float = 1.0, w_max: float = 60.0) -> Problem:
