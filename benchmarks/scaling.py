@@ -174,7 +174,7 @@ def main() -> int:
         ax.loglog(x, y, "o-", label="measured")
         i = list(x).index(REF[axis]) if REF[axis] in x else 0
         if axis == "batch":
-            ax.axhline(y[i], color="grey", ls="--", label="flat (perfect batching)")
+            ax.axhline(y[i], color="grey", ls="--", label="one run per call")
             ax.set_ylabel("best time per run (ms)")
         else:
             ax.loglog(x, y[i] * x / x[i], color="grey", ls="--", label="linear through reference")
