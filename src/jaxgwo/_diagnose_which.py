@@ -197,17 +197,19 @@ def fit_linear_candidates(
     n_seed = max(2, wolves // 2)
     for i, names in enumerate(candidates):
         act = _active_mask(names)
-        lo = np.r_[x_nom - half, np.where(act, _Z_LO, _Z_NEUTRAL)]
-        hi = np.r_[x_nom + half, np.where(act, _Z_HI, _Z_NEUTRAL + 1e-9)]
-        lo[4], hi[4] = max(lo[4], math.log(0.05)), min(hi[4], math.log(3.0))
+        # the servo damping's box stays inside [0.05, 3] even when the nominal fit ran to an edge
+        x_c = x_nom.copy()
+        x_c[4] = min(max(x_c[4], math.log(0.05) + half), math.log(3.0) - half)
+        lo = np.r_[x_c - half, np.where(act, _Z_LO, _Z_NEUTRAL)]
+        hi = np.r_[x_c + half, np.where(act, _Z_HI, _Z_NEUTRAL + 1e-9)]
         ku, kn = jax.random.split(init_keys[i])
         u = np.asarray(jax.random.uniform(ku, (n_seed, 6), dtype=jnp.float64))
         z0 = np.where(act, _Z_LO + u * (_Z_HI - _Z_LO), _Z_NEUTRAL)
         if act[3]:  # a narrow resonance is easily missed: seed its frequency on an even grid
             z0[:, 3] = np.linspace(_Z_LO[3], _Z_HI[3], n_seed + 2)[1:-1]
-        xp = x_nom + 0.05 * np.asarray(jax.random.normal(kn, (n_seed, 5), dtype=jnp.float64))
+        xp = x_c + 0.05 * np.asarray(jax.random.normal(kn, (n_seed, 5), dtype=jnp.float64))
         init = np.clip(np.concatenate([xp, z0], axis=1), lo, hi)
-        init[0, :5] = x_nom
+        init[0, :5] = np.clip(x_nom, lo[:5], hi[:5])
         objs.append(AugmentedCifer.from_cifer(objective, act))
         los.append(lo)
         his.append(hi)
@@ -711,9 +713,14 @@ def score_candidate(
     function the nominal fit has absorbed: their BIC per effective sample of the
     identification output error against the null time-domain refit).
     """
+    if not math.isfinite(correlation_time_s):
+        correlation_time_s = dt
     y = np.concatenate(measured)
     p = np.concatenate(predicted)
     p0 = np.concatenate(nominal_predicted)
+    # an unstable or overflowing simulation predicts nothing: it cannot beat noise
+    p = np.where(np.isfinite(p), p, 0.0)
+    p0 = np.where(np.isfinite(p0), p0, 0.0)
     pb = p0 if baseline_predicted is None else np.concatenate(baseline_predicted)
     r2 = float(r_squared(jnp.asarray(y), jnp.asarray(p)))
     tic = float(theil_inequality(jnp.asarray(y), jnp.asarray(p)))
