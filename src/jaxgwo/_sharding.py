@@ -47,7 +47,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from ._gwo import GreyWolfConfig, GreyWolfResult, _check_problem, _run, _strong
+from ._gwo import GreyWolfConfig, GreyWolfResult, _check_problem, _filter_jit, _run, _strong
 
 SEED_AXIS = "seeds"
 
@@ -114,7 +114,7 @@ def run_seeds_sharded(
     return jax.tree.map(lambda v: v[:n_seeds], result)
 
 
-@eqx.filter_jit
+@_filter_jit  # the engine's compiler options (YNNPACK for dot only), as run() has
 def _run_sharded(config, objective, lower, upper, raw_keys, init_wolves, keep_history, mesh,
                  impl):
     replicated, static = eqx.partition((config, objective, lower, upper, init_wolves),
