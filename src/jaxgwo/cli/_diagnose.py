@@ -63,7 +63,7 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def export_diagnosis(d, path: str, fmt: str | None, source: str) -> str:
+def export_diagnosis(d, path: str, fmt: str | None, source: str, command: str | None = None) -> str:
     """The nominal model of ``d``; the verdict and the augmented models' effect parameters
     (top candidate and the top-two combination) as metadata."""
     import jax.numpy as jnp
@@ -85,7 +85,7 @@ def export_diagnosis(d, path: str, fmt: str | None, source: str) -> str:
         "combined_top2": doc.get("combined_top2"),
     }
     return export_model({d.channel: model}, path, fmt,
-                        provenance={"source": source, "command": command_line()}, **meta)
+                        provenance={"source": source, "command": command or command_line()}, **meta)
 
 
 def run(args) -> int:
@@ -125,9 +125,9 @@ def run(args) -> int:
     if args.plot:
         plot_diagnosis(d, args.plot)
     if getattr(args, "export", None):
-        export_diagnosis(d, args.export, args.export_format, source)
+        export_diagnosis(d, args.export, args.export_format, source, command_line(args))
     if getattr(args, "report", None):
         from .._report import write_diagnosis_report
 
-        write_diagnosis_report(d, args.report, source=source, command=command_line())
+        write_diagnosis_report(d, args.report, source=source, command=command_line(args))
     return 0

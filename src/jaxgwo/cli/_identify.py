@@ -117,10 +117,13 @@ def check_output_paths(args, names=("json", "plot", "export", "report", "converg
         raise ValueError("--export-format needs --export FILE.")
 
 
-def command_line() -> str:
+def command_line(args=None) -> str:
+    """The command as typed, for provenance: ``args.argv`` (set by :func:`main`), else
+    the process' own arguments."""
     import shlex
 
-    return "jaxgwo " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    argv = getattr(args, "argv", None)
+    return "jaxgwo " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
 
 
 def add_input_options(p) -> None:
@@ -228,12 +231,12 @@ def run(args) -> int:
 
         plot_identification(list(results.values()), args.plot)
     if args.export:
-        export_results(results, args.export, args.export_format, source)
+        export_results(results, args.export, args.export_format, source, command_line(args))
     if args.report:
         from .._report import write_identification_report
 
         write_identification_report(results, args.report, source=source, wall_s=wall,
-                                    command=command_line())
+                                    command=command_line(args))
     return 0
 
 
@@ -259,7 +262,8 @@ def _identify_with_progress(by_channel, settings, validation, quiet):
     return results
 
 
-def export_results(results, path: str, fmt: str | None, source: str) -> str:
+def export_results(results, path: str, fmt: str | None, source: str,
+                   command: str | None = None) -> str:
     """Export every channel's model to one file (see ``jaxgwo identify --help``)."""
     from .._export import export_model
 
@@ -275,7 +279,7 @@ def export_results(results, path: str, fmt: str | None, source: str) -> str:
             "validation_tic": None if v is None else v.tic,
         }
     return export_model({ch: r.model for ch, r in results.items()}, path, fmt,
-                        provenance={"source": source, "command": command_line()},
+                        provenance={"source": source, "command": command or command_line()},
                         per_channel=per_channel)
 
 

@@ -100,6 +100,7 @@ def enable_compilation_cache() -> str | None:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # for provenance (command_line)
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
