@@ -375,6 +375,13 @@ def polish(objective, x0, steps: int):
 
 
 @eqx.filter_jit
+@eqx.filter_jit
+def _polish_batch(objectives, xs, steps: int):
+    """:func:`polish` of each channel, vmapped inside one jit so that a second run (or a
+    warm persistent cache) neither re-traces nor re-lowers it."""
+    return eqx.filter_vmap(lambda o, x: polish(o, x, steps))(objectives, xs)
+
+
 def _residuals(objective, x):
     return objective.residuals(x)
 
@@ -754,8 +761,7 @@ def _identify_prepared(preps, settings, validation):
                           init_wolves=init)
         best = res.best_position
         if method.endswith("+polish"):
-            best = eqx.filter_vmap(lambda o, x: polish(o, x, settings.polish_steps))(
-                objectives, best)
+            best = _polish_batch(objectives, best, settings.polish_steps)
         xs = list(best)
         histories = list(np.asarray(res.history_best))
         evals = [int(e) for e in np.asarray(res.evaluations)]
