@@ -43,6 +43,9 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxgwo  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import cpu_model  # noqa: E402
 from jaxgwo._atomic import atomic_write_text  # noqa: E402
 from jaxgwo._testfunctions import helicopter_problem  # noqa: E402
 
@@ -62,17 +65,6 @@ QUICK = {
 }
 LABEL = {"freq": "frequency points", "wolves": "wolves", "iterations": "iterations",
          "batch": "batch size (seeds per call)"}
-
-
-def cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def measure(freq: int, wolves: int, iterations: int, batch: int, repeats: int) -> dict:

@@ -57,6 +57,9 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxgwo  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import cpu_model  # noqa: E402
 from jaxgwo._atomic import atomic_write_text  # noqa: E402
 from jaxgwo._gwo import _compiler_options  # noqa: E402
 from jaxgwo._testfunctions import helicopter_problem  # noqa: E402
@@ -94,17 +97,6 @@ def c_floor(n_freq: int, evals: int) -> tuple[float, float] | None:
         out = subprocess.run([exe, str(n_freq), str(evals), "31"], check=True,
                              capture_output=True, text=True).stdout.split()
     return float(out[0]) * 1e-3, float(out[1]) * 1e-3
-
-
-def cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def main() -> int:
