@@ -810,9 +810,6 @@ class _FitStarted(Exception):
     pass
 
 
-@pytest.mark.xfail(strict=True, raises=_FitStarted,
-                   reason="diagnose does not check DiagnoseSettings before the nominal fit "
-                          "(fix belongs in _diagnose.py; see the issue 7 report)")
 def test_diagnose_checks_its_settings_before_fitting(monkeypatch):
     import jaxgwo._diagnose as diagnose_module
 
@@ -820,14 +817,12 @@ def test_diagnose_checks_its_settings_before_fitting(monkeypatch):
         raise _FitStarted
 
     monkeypatch.setattr(diagnose_module, "identify_channels", started)
-    for bad in (dict(wolves=2), dict(iterations=0)):
-        with pytest.raises(ValueError, match="wolves|iterations"):
+    for bad in (dict(wolves=2), dict(iterations=0), dict(nonlinear_wolves=3),
+                dict(candidates=("time_delay", "gremlins"))):
+        with pytest.raises(ValueError, match="wolves|iterations|gremlins"):
             diagnose([_record()], [_record()], "lateral", dataclasses.replace(DIAGNOSE, **bad))
 
 
-@pytest.mark.xfail(strict=True, raises=_FitStarted,
-                   reason="diagnose scores validation records with the training records' sample "
-                          "period without checking the rates agree (fix belongs in _diagnose.py)")
 def test_diagnose_rejects_validation_at_another_sample_rate(monkeypatch):
     import jaxgwo._diagnose as diagnose_module
 

@@ -114,6 +114,20 @@ class DiagnoseSettings:
     nonlinear_iterations: int = 10
     seed: int = 0
 
+    def __post_init__(self):
+        for name in ("wolves", "nonlinear_wolves"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 4:
+                raise ValueError(f"{name}={v!r}: a grey wolf pack needs at least 4 wolves "
+                                 "(alpha, beta, delta and an omega); pass an integer >= 4.")
+        for name in ("iterations", "nonlinear_iterations"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"{name}={v!r}: pass an integer >= 1.")
+        unknown = [c for c in self.candidates if c not in EFFECTS]
+        if unknown:
+            raise ValueError(f"unknown candidate effect(s) {unknown}; choose from {', '.join(EFFECTS)}.")
+
 
 @dataclass(frozen=True)
 class Diagnosis:
@@ -285,6 +299,12 @@ def diagnose(
         raise ValueError("diagnose needs held-out validation records (--validate VAL): the ranking is scored on them.")
     if not train:
         raise ValueError("diagnose needs at least one identification record.")
+    rates = {round(float(r.sample_rate), 6) for r in (*train, *validation)}
+    if len(rates) != 1:
+        raise ValueError(
+            f"the records have different sample rates ({', '.join(f'{r:g}' for r in sorted(rates))} Hz); "
+            "diagnose simulates every record at one rate: resample them to one rate."
+        )
     ids = settings.identify
     key = jax.random.key(settings.seed)
     nominal = identify_channels({channel: list(train)}, ids, validation=list(validation))[channel]
