@@ -59,6 +59,11 @@ def test_cifer_matches_hand_computation(weighting):
         assert float(obj.cost(m)) == pytest.approx(_hand_J(off, fr, weighting), rel=1e-10)
         r = obj.residuals_from_params(m.to_array())
         assert float(jnp.sum(r**2)) == pytest.approx(float(obj.cost(m)), rel=1e-12)
+        # a model given only by its complex response (as the diagnosis' augmented models are)
+        h = m.frequency_response(obj.w)
+        assert float(obj.cost_from_response(h)) == pytest.approx(_hand_J(off, fr, weighting), rel=1e-10)
+        np.testing.assert_allclose(np.asarray(obj.residuals_from_response(h)), np.asarray(r),
+                                   rtol=1e-9, atol=1e-12)
 
 
 def test_cifer_zero_at_truth_and_convenience():

@@ -47,7 +47,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, Complex, Float
 
 from ._models import PaperModel, ParameterMap, QuarticModel
 from ._spectral import FrequencyResponse
@@ -109,7 +109,11 @@ def _model_db_phase(pmap: ParameterMap, p, w):
         db = 0.5 * _LOG10_20 * (jnp.log(num * num) - jnp.log(den_re * den_re + den_im * den_im))
         ph = jnp.where(num < 0, np.pi, 0.0) - jnp.arctan2(den_im, den_re)
         return db, _RAD2DEG * ph
-    h = QuarticModel.from_array(p).frequency_response(w)
+    return _db_phase(QuarticModel.from_array(p).frequency_response(w))
+
+
+def _db_phase(h):
+    """Magnitude (dB) and phase (deg) of a complex response."""
     return 0.5 * _LOG10_20 * jnp.log(h.real**2 + h.imag**2), _RAD2DEG * jnp.angle(h)
 
 
@@ -190,20 +194,36 @@ class CiferObjective(_ParameterObjective):
             parameter_map=parameter_map,
         )
 
-    def residuals_from_params(self, p: Float[Array, " dim"]) -> Float[Array, " 2freq"]:
-        """Vector ``r`` with ``J = sum(r**2)``: magnitude rows then phase rows."""
-        db, ph = _model_db_phase(self.parameter_map, p, self.w)
+    def _errors(self, db, ph):
+        """Model-minus-measured magnitude (dB) and phase (deg, wrapped) errors."""
+        return db - self.magnitude_db, wrap_degrees(ph - self.phase_deg)
+
+    def _residual_vector(self, db, ph) -> Float[Array, " 2freq"]:
+        e_db, e_ph = self._errors(db, ph)
         s = jnp.sqrt(20.0 / self.n * self.weight)
-        e_db = db - self.magnitude_db
-        e_ph = wrap_degrees(ph - self.phase_deg)
         return jnp.concatenate([s * e_db, s * jnp.sqrt(self.phase_weight) * e_ph])
 
-    def cost_from_params(self, p: Float[Array, " dim"]) -> Float[Array, ""]:
-        db, ph = _model_db_phase(self.parameter_map, p, self.w)
-        e_db = db - self.magnitude_db
-        e_ph = wrap_degrees(ph - self.phase_deg)
+    def _cost(self, db, ph) -> Float[Array, ""]:
+        e_db, e_ph = self._errors(db, ph)
         j = 20.0 / self.n * jnp.sum(self.weight * (e_db**2 + self.phase_weight * e_ph**2))
         return _finite_or_inf(j)
+
+    def residuals_from_params(self, p: Float[Array, " dim"]) -> Float[Array, " 2freq"]:
+        """Vector ``r`` with ``J = sum(r**2)``: magnitude rows then phase rows."""
+        return self._residual_vector(*_model_db_phase(self.parameter_map, p, self.w))
+
+    def cost_from_params(self, p: Float[Array, " dim"]) -> Float[Array, ""]:
+        return self._cost(*_model_db_phase(self.parameter_map, p, self.w))
+
+    def residuals_from_response(self, h: Complex[Array, " freq"]) -> Float[Array, " 2freq"]:
+        """:meth:`residuals_from_params` of any model given by its complex response ``h``
+        on ``self.w`` (for example the paper model times an unmodelled effect)."""
+        return self._residual_vector(*_db_phase(h))
+
+    def cost_from_response(self, h: Complex[Array, " freq"]) -> Float[Array, ""]:
+        """``J`` of a model given by its complex response ``h`` on ``self.w`` (+inf when
+        not finite)."""
+        return self._cost(*_db_phase(h))
 
 
 

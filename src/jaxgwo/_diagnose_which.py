@@ -53,7 +53,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from . import _gwo as G
-from ._cost import CiferObjective, wrap_degrees
+from ._cost import CiferObjective
 from ._effects import EFFECTS, rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
 from ._identify import _jacobian, _residuals  # the jitted residual/Jacobian pair
 from ._metrics import r_squared, theil_inequality
@@ -82,7 +82,6 @@ _SLOTS = {"time_delay": (0,), "sensor_lag": (1,), "rotor_flapping": (2,), "struc
 _Z_LO = np.array([0.0, math.log(2.0), 0.0, math.log(3.0), math.log(0.01), math.log(0.02)])
 _Z_HI = np.array([0.15, math.log(100.0), 0.1, math.log(45.0), math.log(0.5), math.log(1.5)])
 _Z_NEUTRAL = np.array([0.0, math.log(100.0), 0.0, math.log(10.0), 0.0, 0.0])
-_LOG10_20 = 20.0 / math.log(10.0)
 
 
 def effect_params_from_z(name: str, z) -> dict[str, float]:
@@ -107,36 +106,27 @@ class AugmentedCifer(eqx.Module):
     response; inactive effect coordinates leave the response unchanged.
     """
 
-    w: Float[Array, " freq"]
-    magnitude_db: Float[Array, " freq"]
-    phase_deg: Float[Array, " freq"]
-    weight: Float[Array, " freq"]
-    n: Float[Array, ""]
-    phase_weight: Float[Array, ""]
+    cifer: CiferObjective
     active: Bool[Array, " 6"]
 
     @classmethod
     def from_cifer(cls, objective: CiferObjective, active) -> AugmentedCifer:
-        return cls(objective.w, objective.magnitude_db, objective.phase_deg, objective.weight, objective.n,
-                   objective.phase_weight, jnp.asarray(active, dtype=bool))  # fmt: skip
+        return cls(objective, jnp.asarray(active, dtype=bool))
 
     def response(self, x: Float[Array, " 11"]):
         p = jnp.exp(x[:5])
         z = x[5:]
         a = self.active
-        one = jnp.ones_like(self.w).astype(jnp.complex128)
-        h = rotor_flapping_response(p, self.w, jnp.where(a[2], z[2], 0.0))
-        h = h * jnp.where(a[0], time_delay_response(self.w, z[0]), one)
-        h = h * jnp.where(a[1], sensor_lag_response(self.w, jnp.exp(z[1])), one)
-        sm = structural_mode_response(self.w, jnp.exp(z[3]), jnp.exp(z[4]), jnp.exp(z[5]))
+        w = self.cifer.w
+        one = jnp.ones_like(w).astype(jnp.complex128)
+        h = rotor_flapping_response(p, w, jnp.where(a[2], z[2], 0.0))
+        h = h * jnp.where(a[0], time_delay_response(w, z[0]), one)
+        h = h * jnp.where(a[1], sensor_lag_response(w, jnp.exp(z[1])), one)
+        sm = structural_mode_response(w, jnp.exp(z[3]), jnp.exp(z[4]), jnp.exp(z[5]))
         return h * jnp.where(a[3], sm, one)
 
     def residuals(self, x: Float[Array, " 11"]) -> Float[Array, " 2freq"]:
-        h = self.response(x)
-        db = 0.5 * _LOG10_20 * jnp.log(h.real**2 + h.imag**2)
-        ph = jnp.rad2deg(jnp.angle(h))
-        s = jnp.sqrt(20.0 / self.n * self.weight)
-        return jnp.concatenate([s * (db - self.magnitude_db), s * jnp.sqrt(self.phase_weight) * wrap_degrees(ph - self.phase_deg)])
+        return self.cifer.residuals_from_response(self.response(x))
 
     def __call__(self, x: Float[Array, " 11"]) -> Float[Array, ""]:
         r = self.residuals(x)
@@ -246,7 +236,7 @@ def fit_linear_candidates(
         if not cost <= float(obj(jnp.asarray(xb))):
             x, cost = xb, float(obj(jnp.asarray(xb)))
         Jm = jac(x[idx])
-        m = int(np.sum(np.asarray(obj.weight) > 0))
+        m = int(np.sum(np.asarray(obj.cifer.weight) > 0))
         s2 = cost / max(1, 2 * m - idx.size)
         cov = np.linalg.pinv(Jm.T @ Jm) * s2 * dependence_factor**2
         sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -627,13 +617,8 @@ def simulated_response_cost(objective: CiferObjective, pairs, sample_rate_hz: fl
     if settings.zoh_correction:
         r = zoh_correction(r, sample_rate_hz)
     h = np.asarray(r.H) * sign
-    db = 20.0 * np.log10(np.maximum(np.abs(h), 1e-300))
-    ph = np.rad2deg(np.angle(h))
-    wt = np.asarray(objective.weight)
-    s = 20.0 / float(objective.n) * wt
-    dph = (ph - np.asarray(objective.phase_deg) + 180.0) % 360.0 - 180.0
-    j = float(np.sum(s * ((db - np.asarray(objective.magnitude_db)) ** 2 + float(objective.phase_weight) * dph**2)))
-    return j if math.isfinite(j) else float("inf")
+    h = np.where(np.abs(h) > 1e-300, h, 1e-300)  # a dead output: a huge J, not log(0)
+    return float(objective.cost_from_response(jnp.asarray(h)))
 
 
 # ----------------------------------------------------------------------------- scoring
