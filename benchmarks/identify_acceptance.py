@@ -47,7 +47,7 @@ from jaxgwo._spectral import FrequencyResponse
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from validation_sets import default_validation_key, multistep_validation  # noqa: E402
-from jaxgwo._simulate import DEFAULT_DATASET_CONDITIONS, Disturbance  # noqa: E402
+from jaxgwo._simulate import Disturbance  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CHANNELS = ("lateral", "longitudinal")
@@ -198,14 +198,10 @@ def main() -> int:
                 for m in methods}
 
     # R^2 of the default model on further flights at several turbulence levels
-    cond = DEFAULT_DATASET_CONDITIONS
-    base = Disturbance(gust_rms=cond["gust_rms_rad_s2"], gust_time_constant_s=cond["gust_time_constant_s"],
-                       noise_std=cond["gyro_noise_std_rad_s"])
     levels = (1.0, 0.5, 0.25, 0.0)
     by_level = {}
     for lev in levels:
-        dist = Disturbance(gust_rms=lev * base.gust_rms, gust_time_constant_s=base.gust_time_constant_s,
-                           noise_std=base.noise_std)
+        dist = Disturbance.default_dataset(gust_scale=lev)
         for c in CHANNELS:
             recs_l = [multistep_validation(jax.random.key(3000 + i), c, disturbance=dist)[0]
                       for i in range(args.flights)]

@@ -112,6 +112,14 @@ class Disturbance(eqx.Module):
     snr_db: Float[Array, "2"] = eqx.field(converter=_pair, default=math.inf)
     noise_std: Float[Array, "2"] = eqx.field(converter=_pair, default=0.0)
 
+    @classmethod
+    def default_dataset(cls, gust_scale: float = 1.0) -> Disturbance:
+        """The embedded default dataset's gusts and gyro noise
+        (:data:`DEFAULT_DATASET_CONDITIONS`), the gust moment scaled by ``gust_scale``."""
+        c = DEFAULT_DATASET_CONDITIONS
+        return cls(gust_rms=tuple(gust_scale * g for g in c["gust_rms_rad_s2"]),
+                   gust_time_constant_s=c["gust_time_constant_s"], noise_std=c["gyro_noise_std_rad_s"])
+
 
 class Stability(eqx.Module):
     """Eigen-analysis of the linearised loop (plant, servos, hold loop; nonlinear effects off)."""
@@ -451,8 +459,7 @@ def default_dataset_records(key: PRNGKeyArray | None = None) -> dict[str, Flight
     fs = c["sample_rate_hz"]
     plant = R50Plant.default()
     hold = HoldLoop.r50()
-    dist = Disturbance(gust_rms=c["gust_rms_rad_s2"], gust_time_constant_s=c["gust_time_constant_s"],
-                       noise_std=c["gyro_noise_std_rad_s"])  # fmt: skip
+    dist = Disturbance.default_dataset()
     common = {
         "plant": "R-50 hover (Mettler, Tischler & Kanade 2002) with servos 38.2 rad/s, 0.51",
         "hold_loop": "weak pilot-like attitude/velocity hold (HoldLoop.r50); logged cyclics are totals",
@@ -528,8 +535,7 @@ def multistep_validation(
     fs = c["sample_rate_hz"]
     va, da = c["validation_amplitudes"] if amplitudes is None else amplitudes
     if disturbance is None:
-        disturbance = Disturbance(gust_rms=c["gust_rms_rad_s2"], gust_time_constant_s=c["gust_time_constant_s"],
-                                  noise_std=c["gyro_noise_std_rad_s"])  # fmt: skip
+        disturbance = Disturbance.default_dataset()
     n = int(round(30.0 * fs))
     t = jnp.arange(n, dtype=jnp.float64) / fs
     on_axis = (
