@@ -49,7 +49,14 @@ from ._diagnose_which import (
     simulated_response_cost,
 )
 from ._effects import EFFECTS
-from ._identify import IdentifySettings, _prepare, channel_signals, identify_channels, independent_points
+from ._identify import (
+    IdentifySettings,
+    _need_int,
+    _prepare,
+    channel_signals,
+    identify_channels,
+    independent_points,
+)
 from ._metrics import r_squared, theil_inequality
 
 __all__ = ["DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
@@ -116,14 +123,10 @@ class DiagnoseSettings:
 
     def __post_init__(self):
         for name in ("wolves", "nonlinear_wolves"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 4:
-                raise ValueError(f"{name}={v!r}: a grey wolf pack needs at least 4 wolves "
-                                 "(alpha, beta, delta and an omega); pass an integer >= 4.")
+            _need_int(name, getattr(self, name), 4, "a grey wolf pack needs alpha, beta, delta "
+                      "and an omega")
         for name in ("iterations", "nonlinear_iterations"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"{name}={v!r}: pass an integer >= 1.")
+            _need_int(name, getattr(self, name), 1, "IGWO iterations of the refits")
         unknown = [c for c in self.candidates if c not in EFFECTS]
         if unknown:
             raise ValueError(f"unknown candidate effect(s) {unknown}; choose from {', '.join(EFFECTS)}.")

@@ -156,6 +156,8 @@ def load_by_channel(paths, channels, args, role: str = "identification") -> dict
 
     fmt_opt = getattr(args, "format", "auto")
     run_opt, window = getattr(args, "run", None), getattr(args, "window", None)
+    # an ArduPilot log gives each channel its own run unless --run/--window pick one span
+    one_span = run_opt is not None or window is not None
     out = {ch: [] for ch in channels}
     seen: dict[str, None] = {}  # every column of every file read, in order
     for path in paths:
@@ -163,10 +165,9 @@ def load_by_channel(paths, channels, args, role: str = "identification") -> dict
         try:
             if fmt == "ardupilot":
                 for ch in channels:
-                    one = run_opt is not None or window is not None
                     out[ch].append(load_any(
                         path, format=fmt, required=CHANNELS[ch], input=args.log_input,
-                        run=run_opt, window=window, channel=None if one else ch))
+                        run=run_opt, window=window, channel=None if one_span else ch))
                 continue
             if fmt == "px4":
                 rec = load_any(path, format=fmt, window=window)
