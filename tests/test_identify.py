@@ -84,6 +84,30 @@ def test_uncertainty_and_convergence_are_reported(recs):
     assert res.evaluations == IdentifySettings(**SMALL).optimiser().total_evaluations
 
 
+def test_bounds_use_the_measured_random_error_when_there_is_one(recs):
+    """A measured response carries its random error: the bounds are the sandwich of
+    those variances (times the shared-bin correction); an analytic response has none and
+    falls back to J/(m - p)."""
+    from jaxgwo._identify import _prepare, identify_responses, independent_points
+    from jaxgwo._metrics import parameter_uncertainty
+    from jaxgwo._spectral import FrequencyResponse
+
+    st = IdentifySettings(method="traditional", **SMALL)
+    res = identify_channels({"lateral": recs[:1]}, st)["lateral"]
+    prep = _prepare(recs[:1], "lateral", st)
+    p = jnp.asarray(np.asarray(res.model.to_array()) * np.array([prep.sign, 1, 1, 1, 1]))
+    ref = parameter_uncertainty(prep.objective.residuals_from_params, p,
+                                residual_variance=prep.objective.residual_variances(prep.response.random_error))
+    dep = np.sqrt(float(np.sum(np.asarray(prep.response.mask))) / independent_points(prep.response))
+    np.testing.assert_allclose(np.asarray(res.uncertainty.cramer_rao), dep * np.asarray(ref.cramer_rao),
+                               rtol=1e-8)
+    w = jnp.geomspace(1.0, 60.0, 60)
+    fr = FrequencyResponse.from_complex(w, PaperModel.from_array(jnp.asarray(TRUTH)).frequency_response(w))
+    exact = identify_responses({"lateral": fr}, st)["lateral"]
+    cr = np.asarray(exact.uncertainty.cramer_rao_percent)
+    assert np.all(np.isfinite(cr)) and np.all(cr < 1e-3)  # an exact fit: J/(m-p) ~ 0
+
+
 def test_missing_channel_and_unexcited_input_are_clear_errors(recs):
     with pytest.raises(IdentificationError, match="needs columns 'delta_lon' and 'q'"):
         channel_signals(recs[0], "longitudinal")

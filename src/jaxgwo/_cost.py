@@ -225,6 +225,22 @@ class CiferObjective(_ParameterObjective):
         not finite)."""
         return self._cost(*_db_phase(h))
 
+    def residual_variances(self, random_error: Float[Array, " freq"]) -> Float[Array, " 2freq"]:
+        """Variance of each entry of :meth:`residuals_from_params` due to the measured
+        response's random error ``eps`` (:func:`jaxgwo._spectral.random_error`).
+
+        ``eps`` is the standard deviation of ``|H|/|H|`` and of the phase in radians
+        (Bendat & Piersol), so the magnitude error has ``(20/ln 10) eps`` dB and the phase
+        ``(180/pi) eps`` degrees; each is scaled by the residual's weight ``20/n W``
+        (and ``W_p`` for phase).  Masked points get 0.  Used for the sandwich Cramer-Rao
+        bounds (:func:`jaxgwo._metrics.parameter_uncertainty`): ``W_gamma`` is not the
+        inverse of these variances, so ``J``'s Hessian alone misstates the covariance.
+        """
+        eps = jnp.where(self.weight > 0, jnp.asarray(random_error, dtype=float), 0.0)
+        s2 = 20.0 / self.n * self.weight
+        return jnp.concatenate([s2 * (_LOG10_20 * eps) ** 2,
+                                s2 * self.phase_weight * (_RAD2DEG * eps) ** 2])
+
 
 
 class ComplexErrorObjective(_ParameterObjective):

@@ -593,6 +593,20 @@ def _dependence_corrected(unc: ParameterUncertainty, response: FrequencyResponse
     )
 
 
+def _measured_variances(prep: _Prepared):
+    """Per-residual variances of ``J`` from the measured random error, or ``None`` when
+    the response carries none (an analytic response: coherence 1, no averages).
+
+    With them the Cramer-Rao bounds are the sandwich of :mod:`jaxgwo._metrics` (the
+    coherence weights of ``J`` are not inverse variances); without them, the bounds fall
+    back to the residual-variance convention ``J/(m - p)``.
+    """
+    eps = np.asarray(prep.response.random_error, float)[np.asarray(prep.objective.weight) > 0]
+    if eps.size == 0 or not np.all(np.isfinite(eps) & (eps > 0)):
+        return None
+    return prep.objective.residual_variances(prep.response.random_error)
+
+
 def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings,
             validation_records) -> ChannelIdentification:
     pmap = prep.objective.parameter_map
@@ -613,7 +627,8 @@ def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings
     wls_model = PaperModel.from_array(prep.start.to_array() * flip)
     unc = _dependence_corrected(
         parameter_uncertainty(prep.objective.residuals_from_params, p,
-                              ("K", "tau", "M", "omega_s", "zeta_s")),
+                              ("K", "tau", "M", "omega_s", "zeta_s"),
+                              residual_variance=_measured_variances(prep)),
         prep.response,
     )
     # the sign flip leaves every bound's size unchanged; report values with their true sign

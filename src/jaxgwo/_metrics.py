@@ -27,8 +27,23 @@ bounds statistical one-sigma bounds when the weighted residuals are independent 
 variance.  ``noise_variance=1.0`` gives Tischler & Remple's formula as written
 (:math:`H = J_r^\top J_r` is their Gauss-Newton Hessian of the CIFER cost, without the
 factor 2); Tischler's guidelines are :math:`\mathrm{CR} \lesssim 20\%` and
-:math:`I \lesssim 10\%`.  Frequency-response points from a spectral estimate are not
-independent, so either convention is a guide, not an exact confidence interval.
+:math:`I \lesssim 10\%`.
+
+**Known residual variances (sandwich).**  When each residual's variance :math:`v_i` is
+known (for the CIFER cost, from the measured response's random error:
+:meth:`CiferObjective.residual_variances <jaxgwo._cost.CiferObjective.residual_variances>`)
+but the cost's weights are not their inverses (CIFER's :math:`W_\gamma` is not), the
+least-squares estimate has the covariance
+
+.. math::  C = A^{-1} B A^{-1}, \qquad A = J_r^\top J_r, \quad
+           B = J_r^\top \operatorname{diag}(v) J_r
+
+(the Huber-White sandwich with model-based variances; it reduces to
+:math:`\sigma^2 A^{-1}` when all :math:`v_i = \sigma^2`).  The Fisher information is then
+:math:`F = C^{-1} = A B^{-1} A`.  It describes the scatter from random error only, not a
+bias from model-structure error.  Frequency-response points from a spectral estimate
+are not independent, so every convention here is a guide, not an exact confidence
+interval; ``benchmarks/cr_coverage.py`` measures how well the bounds cover.
 """
 
 from __future__ import annotations
@@ -121,14 +136,37 @@ def fisher_information(
     return jr.T @ jr / sigma2, sigma2
 
 
-@eqx.filter_jit
-def _uncertainty_arrays(residual_fn, theta, noise_variance):
-    fisher, sigma2 = fisher_information(residual_fn, theta, noise_variance)
-    # equilibrate before inverting: parameters differ by decades (K ~ 1e2, a4 ~ 1e-6)
-    d = jnp.sqrt(jnp.diagonal(fisher))
+def _equilibrated_inverse(m, d):
+    """``m^-1`` computed as ``D^-1 (D^-1 m D^-1)^-1 D^-1`` with ``D = diag(d)``: the
+    parameters differ by decades (K ~ 1e2, a4 ~ 1e-6)."""
     ds = jnp.where(d > 0, d, 1.0)
-    cov_s = jnp.linalg.inv(fisher / ds[:, None] / ds[None, :])
-    cov = cov_s / ds[:, None] / ds[None, :]
+    return jnp.linalg.inv(m / ds[:, None] / ds[None, :]) / ds[:, None] / ds[None, :]
+
+
+def _sandwich(jr, residual_variance):
+    """Fisher information ``A B^-1 A`` and covariance ``A^-1 B A^-1`` (module docstring)."""
+    a = jr.T @ jr
+    b = jr.T @ (jnp.asarray(residual_variance, dtype=float)[:, None] * jr)
+    a_inv = _equilibrated_inverse(a, jnp.sqrt(jnp.diagonal(a)))
+    cov = a_inv @ b @ a_inv
+    cov = 0.5 * (cov + cov.T)
+    return _equilibrated_inverse(cov, jnp.sqrt(jnp.abs(jnp.diagonal(cov)))), cov
+
+
+@eqx.filter_jit
+def _uncertainty_arrays(residual_fn, theta, noise_variance, residual_variance=None):
+    if residual_variance is None:
+        fisher, sigma2 = fisher_information(residual_fn, theta, noise_variance)
+        d = jnp.sqrt(jnp.diagonal(fisher))
+        cov = _equilibrated_inverse(fisher, d)
+    else:
+        jr = jax.jacfwd(residual_fn)(theta)
+        v = jnp.asarray(residual_variance, dtype=float)
+        fisher, cov = _sandwich(jr, v)
+        active = jnp.any(jr != 0.0, axis=1)
+        sigma2 = jnp.sum(jnp.where(active, v, 0.0)) / jnp.maximum(jnp.sum(active), 1).astype(float)
+        d = jnp.sqrt(jnp.diagonal(fisher))
+    ds = jnp.where(d > 0, d, 1.0)
     var = jnp.diagonal(cov)
     ok = jnp.all(jnp.isfinite(cov)) & jnp.all(d > 0) & jnp.all(var > 0)
     cr = jnp.where(ok, jnp.sqrt(jnp.abs(var)), jnp.inf)
@@ -141,16 +179,24 @@ def parameter_uncertainty(
     theta: Float[Array, " p"],
     names: Sequence[str] | None = None,
     noise_variance: float | None = None,
+    residual_variance: Float[Array, " m"] | None = None,
 ) -> ParameterUncertainty:
     """Cramer-Rao bounds and insensitivities at ``theta`` for ``J = ||residual_fn||^2``.
 
     For the CIFER cost of a fitted model: ``parameter_uncertainty(
     objective.residuals_from_params, model.to_array(), model.names)``; bounds are then
     in the physical parameters (not the optimiser's log-parameters).
+    ``residual_variance`` (one variance per residual) selects the sandwich covariance of
+    the module docstring; ``noise_variance`` is then ignored and the stored
+    ``noise_variance`` is the mean of the variances over the residuals that depend on
+    ``theta``.
     """
     theta = jnp.asarray(theta, dtype=float)
     names = tuple(names) if names is not None else tuple(f"p{i}" for i in range(theta.size))
-    fisher, sigma2, cov, cr, ins = _uncertainty_arrays(residual_fn, theta, noise_variance)
+    if residual_variance is not None:
+        residual_variance = jnp.asarray(residual_variance, dtype=float)
+    fisher, sigma2, cov, cr, ins = _uncertainty_arrays(residual_fn, theta, noise_variance,
+                                                       residual_variance)
     scale = 100.0 / jnp.abs(theta)
     return ParameterUncertainty(
         names=names,
