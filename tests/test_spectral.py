@@ -124,3 +124,13 @@ def test_beyond_nyquist_rejected():
     u, y = _record(60, 5)
     with pytest.raises(ValueError, match="Nyquist"):
         composite_frequency_response((u, y), FS, w_min=1.0, w_max=400.0)
+
+
+def test_hann_window_is_scipys_bit_for_bit():
+    from jaxgwo._spectral import _window
+
+    for n in (*range(1, 40), 255, 256, 1000, 1024, 3001):
+        ours, ref = _window("hann", n), scipy.signal.get_window("hann", n)
+        assert ours.dtype == ref.dtype and ours.tobytes() == ref.tobytes(), n
+    # other windows come from scipy itself
+    assert np.array_equal(_window("hamming", 64), scipy.signal.get_window("hamming", 64))

@@ -20,7 +20,10 @@ Order of the steps, and why:
 4. **Zero-phase low-pass**: a Butterworth filter run forwards and backwards
    (``scipy.signal.sosfiltfilt``), so the phase of the frequency response is not shifted.
 
-This is the data path, not the hot path, so it is written in NumPy/SciPy.
+This is the data path, not the hot path, so it is written in NumPy/SciPy.  SciPy is
+imported where a step needs it: ``scipy.signal`` (smoothing, the low-pass) and
+``scipy.interpolate`` (filling wild values) take about half a second to import, which the
+default ``jaxgwo identify`` (no smoothing, no wild value) does not pay.
 """
 
 from __future__ import annotations
@@ -30,9 +33,7 @@ from typing import Literal
 
 import equinox as eqx
 import numpy as np
-import scipy.interpolate
 import scipy.ndimage
-import scipy.signal
 
 # the loader's tolerance on the time step: whatever the loader accepts, preprocessing accepts
 from ._data import TIME_TOLERANCE
@@ -201,7 +202,9 @@ def reject_wild_values(
         good = np.flatnonzero(~bad)
         if good.size < 4:
             raise ValueError("too few good samples to correct wild values")
-        spline = scipy.interpolate.CubicSpline(good, x[good], extrapolate=False)
+        from scipy.interpolate import CubicSpline
+
+        spline = CubicSpline(good, x[good], extrapolate=False)
         xf[bad] = spline(idx_all[bad])
         # beyond the first/last good sample a cubic extrapolates noise wildly: go linear
         lo, hi = good[:2], good[-2:]
@@ -263,6 +266,8 @@ def smooth(x: np.ndarray, window: int, polyorder: int = 2) -> np.ndarray:
     """Zero-phase Savitzky-Golay smoothing over ``window`` samples (odd)."""
     if window % 2 == 0 or window <= polyorder:
         raise ValueError("smoothing window must be odd and larger than polyorder")
+    import scipy.signal
+
     return scipy.signal.savgol_filter(np.asarray(x, dtype=float), window, polyorder)
 
 
@@ -277,6 +282,8 @@ def lowpass_zero_phase(
     nyq = 0.5 * sample_rate_hz
     if not 0.0 < cutoff_hz < nyq:
         raise ValueError(f"low-pass cutoff {cutoff_hz} Hz must lie in (0, {nyq}) Hz")
+    import scipy.signal
+
     sos = scipy.signal.butter(order, cutoff_hz / nyq, btype="low", output="sos")
     return scipy.signal.sosfiltfilt(sos, np.asarray(x, dtype=float))
 

@@ -46,7 +46,6 @@ from typing import Literal
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-import scipy.signal
 from jaxtyping import Array, Bool, Complex, Float
 
 __all__ = [
@@ -230,6 +229,22 @@ def _segment_sums(u, y, nperseg, noverlap, win, detrend):
     )
 
 
+def _window(name: str, n: int) -> np.ndarray:
+    """The periodic (DFT-even) window ``scipy.signal.get_window(name, n)``.  The Hann
+    window is computed here exactly as SciPy computes it (the same operations, so the
+    same bits), which keeps ``scipy.signal`` (about half a second) out of the import."""
+    if name != "hann" or n <= 1:
+        import scipy.signal
+
+        return scipy.signal.get_window(name, n)
+    # scipy.signal.windows.general_cosine(n + 1, [0.5, 0.5]) without its last sample
+    fac = np.linspace(-np.pi, np.pi, n + 1)
+    w = np.zeros(n + 1)
+    for k, a in enumerate((0.5, 0.5)):
+        w += a * np.cos(k * fac)
+    return w[:-1]
+
+
 def cross_spectral_estimate(
     records: Record | Sequence[Record],
     sample_rate_hz: float,
@@ -250,7 +265,7 @@ def cross_spectral_estimate(
         noverlap = nperseg // 2
     if not 0 <= noverlap < nperseg:
         raise ValueError("need 0 <= noverlap < nperseg")
-    win = scipy.signal.get_window(window, nperseg)
+    win = _window(window, nperseg)
     sxx = syy = 0.0
     sxy = 0.0j
     nd = 0
