@@ -44,6 +44,7 @@ from collections.abc import Sequence
 from typing import Literal
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Complex, Float
@@ -58,6 +59,13 @@ __all__ = [
 ]
 
 Record = tuple[np.ndarray, np.ndarray]
+
+
+def _device(a: np.ndarray) -> Array:
+    """A NumPy result as a JAX array.  ``jax.device_put`` copies it as it is, where
+    ``jnp.asarray`` compiles a small program per shape (tens of milliseconds each in a
+    fresh process)."""
+    return jax.device_put(a)
 
 
 class SpectralEstimate(eqx.Module):
@@ -146,7 +154,7 @@ class FrequencyResponse(eqx.Module):
     @property
     def n_passing(self) -> int:
         """Number of frequencies whose coherence passes the threshold."""
-        return int(jnp.sum(self.mask))
+        return int(np.sum(np.asarray(self.mask)))
 
     def masked(self) -> "FrequencyResponse":
         """Only the points that pass the mask (host-side; changes the shape)."""
@@ -288,10 +296,10 @@ def cross_spectral_estimate(
         one_sided[-1] = 1.0
     f = np.fft.rfftfreq(nperseg, 1.0 / sample_rate_hz)
     return SpectralEstimate(
-        frequency_hz=jnp.asarray(f),
-        Gxx=jnp.asarray(sxx * scale * one_sided),
-        Gyy=jnp.asarray(syy * scale * one_sided),
-        Gxy=jnp.asarray(sxy * scale * one_sided),
+        frequency_hz=_device(f),
+        Gxx=_device(sxx * scale * one_sided),
+        Gyy=_device(syy * scale * one_sided),
+        Gxy=_device(sxy * scale * one_sided),
         n_averages=int(nd),
         nperseg=int(nperseg),
         sample_rate_hz=float(sample_rate_hz),
@@ -300,7 +308,7 @@ def cross_spectral_estimate(
 
 def _onto_grid(est: SpectralEstimate, w_out: np.ndarray, w_low: float):
     """Average (or interpolate) the spectra of ``est`` onto the log grid ``w_out``."""
-    w_fft = np.asarray(est.w)
+    w_fft = 2.0 * np.pi * np.asarray(est.frequency_hz)  # est.w, without a device op
     gxx, gyy, gxy = (np.asarray(a) for a in (est.Gxx, est.Gyy, est.Gxy))
     logw = np.log(w_out)
     if w_out.size > 1:
@@ -463,13 +471,13 @@ def composite_frequency_response(
             f"(the highest is {best_coh:.3g}); check that the input excites the band"
         )
     return FrequencyResponse(
-        w=jnp.asarray(w_out),
-        H=jnp.asarray(H),
-        coherence=jnp.asarray(coh),
-        random_error=jnp.asarray(err),
-        n_averages=jnp.asarray(nd.astype(float)),
-        mask=jnp.asarray(mask),
-        window_s=jnp.asarray(win_s),
+        w=_device(w_out),
+        H=_device(H),
+        coherence=_device(coh),
+        random_error=_device(err),
+        n_averages=_device(nd.astype(float)),
+        mask=_device(mask),
+        window_s=_device(win_s),
         coherence_threshold=float(coherence_threshold),
     )
 
@@ -491,4 +499,4 @@ def zoh_correction(response: FrequencyResponse, sample_rate_hz: float) -> Freque
     w = np.asarray(response.w, dtype=float)
     half = 0.5 * w / float(sample_rate_hz)
     hold = np.exp(-1j * half) * np.sinc(half / np.pi)
-    return eqx.tree_at(lambda r: r.H, response, response.H / jnp.asarray(hold))
+    return eqx.tree_at(lambda r: r.H, response, response.H / _device(hold))
