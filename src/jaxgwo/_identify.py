@@ -46,6 +46,7 @@ import numpy as np
 import optax
 
 from . import _gwo as G
+from ._aot import cached_jit
 from ._cost import CiferObjective
 from ._data import CHANNELS, FlightRecord
 from ._metrics import ParameterUncertainty, parameter_uncertainty, r_squared, rms_error, theil_inequality
@@ -53,6 +54,8 @@ from ._models import PaperModel, ParameterMap, QuarticModel, canonicalize_paper_
 from ._preprocess import PreprocessReport, preprocess
 from ._spectral import FrequencyResponse, composite_frequency_response, zoh_correction
 from ._wls import levy_fit_response
+
+_device = jax.device_put  # a host array to JAX without compiling (see _spectral._device)
 
 METHODS = ("wls", "traditional", "wls-gwo", "wls-igwo", "wls-igwo+polish", "paper")
 
@@ -334,19 +337,33 @@ def wls_start(response: FrequencyResponse, sk_iterations: int = 5) -> tuple[Pape
         return PaperModel.from_array(jnp.asarray([k, tau, m, ws, zs])), note
 
 
-def _box(x0: jax.Array, factor: float) -> tuple[jax.Array, jax.Array]:
+def _box(x0, factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """The search box ``[x0 - ln f, x0 + ln f]`` (log-parameters), ``zeta_s`` capped.
+
+    Host NumPy, like :func:`_seeded_wolves`: additions, clips and maxima round exactly as
+    XLA's do, and each would otherwise compile a small program in every fresh process."""
     half = math.log(factor)
+    x0 = np.asarray(x0, dtype=float)
     lo, hi = x0 - half, x0 + half
     # zeta_s (index 4) is kept physical: [0.05, 3]
-    lo = lo.at[4].set(jnp.maximum(lo[4], math.log(0.05)))
-    hi = hi.at[4].set(jnp.minimum(hi[4], math.log(3.0)))
+    lo[4] = np.maximum(lo[4], math.log(0.05))
+    hi[4] = np.minimum(hi[4], math.log(3.0))
     return lo, hi
 
 
-def _seeded_wolves(key, x0, lo, hi, n, spread):
-    noise = spread * jax.random.normal(key, (n, x0.shape[0]))
-    wolves = jnp.clip(x0[None] + noise, lo, hi)
-    return wolves.at[0].set(jnp.clip(x0, lo, hi))
+def _seeded_wolves(key, x0, lo, hi, n, spread) -> np.ndarray:
+    """``n`` wolves normal around ``x0`` (standard deviation ``spread``), clipped to the
+    box; wolf 0 is ``x0`` itself."""
+    x0, lo, hi = (np.asarray(a, dtype=float) for a in (x0, lo, hi))
+    noise = spread * np.asarray(jax.random.normal(key, (n, x0.shape[0])))
+    wolves = _clip(x0[None] + noise, lo, hi)
+    wolves[0] = _clip(x0, lo, hi)
+    return wolves
+
+
+def _clip(x, lo, hi):
+    # jnp.clip's order (max, then min), which np.clip does not promise
+    return np.minimum(np.maximum(x, lo), hi)
 
 
 @eqx.filter_jit
@@ -374,12 +391,20 @@ def polish(objective, x0, steps: int):
     return jnp.where(f_end < best_f, x, best_x)
 
 
-@eqx.filter_jit
+@cached_jit
 @eqx.filter_jit
 def _polish_batch(objectives, xs, steps: int):
     """:func:`polish` of each channel, vmapped inside one jit so that a second run (or a
     warm persistent cache) neither re-traces nor re-lowers it."""
     return eqx.filter_vmap(lambda o, x: polish(o, x, steps))(objectives, xs)
+
+
+@cached_jit(compiler_options=G._compiler_options)
+def _search(config, objectives, lower, upper, keys, init_wolves):
+    """:func:`jaxgwo.run_batch` reduced to what identification reads from it (one
+    compiled program, which :func:`jaxgwo._aot.cached_jit` keeps across runs)."""
+    res = G.run_batch(config, objectives, lower, upper, keys, init_wolves=init_wolves)
+    return res.best_position, res.history_best, res.evaluations
 
 
 def _residuals(objective, x):
@@ -419,19 +444,24 @@ def validate(model: PaperModel, records: Sequence[FlightRecord], channel: str,
              settings: IdentifySettings) -> Validation:
     """Simulate ``model`` from each held-out record's input; score against its output."""
     pairs, _ = _preprocessed(records, channel, settings, role="validation")
+    return _validate_pairs(model, records, pairs)
+
+
+def _validate_pairs(model: PaperModel, records: Sequence[FlightRecord], pairs) -> Validation:
+    """:func:`validate` of records whose signals are already preprocessed (``pairs``)."""
     times, meas, pred = [], [], []
     for rec, (u, y) in zip(records, pairs):
         t = np.asarray(rec.time) - float(rec.time[0])
-        yp = np.asarray(model.simulate(jnp.asarray(t), jnp.asarray(u)))
+        yp = np.asarray(model.simulate(_device(t), _device(u)))
         times.append(t)
         meas.append(y)
         pred.append(yp)
-    y_all, p_all = jnp.asarray(np.concatenate(meas)), jnp.asarray(np.concatenate(pred))
+    y_all, p_all = _device(np.concatenate(meas)), _device(np.concatenate(pred))
     return Validation(
         r2=float(r_squared(y_all, p_all)),
         tic=float(theil_inequality(y_all, p_all)),
         rms=float(rms_error(y_all, p_all)),
-        per_record_r2=tuple(float(r_squared(jnp.asarray(m), jnp.asarray(p)))
+        per_record_r2=tuple(float(r_squared(_device(m), _device(p)))
                             for m, p in zip(meas, pred)),
         time=tuple(times),
         measured=tuple(meas),
@@ -608,7 +638,7 @@ def _measured_variances(prep: _Prepared):
 
 
 def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings,
-            validation_records) -> ChannelIdentification:
+            validation_records, validation_pairs=None) -> ChannelIdentification:
     pmap = prep.objective.parameter_map
     p = canonicalize_paper_params(pmap.params_from_vector(x_best))
     model_n = PaperModel.from_array(p)
@@ -634,7 +664,9 @@ def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings
     # the sign flip leaves every bound's size unchanged; report values with their true sign
     unc = eqx.tree_at(lambda u: u.values, unc, unc.values * flip)
     val = None
-    if validation_records:
+    if validation_records and validation_pairs is not None:
+        val = _validate_pairs(model, validation_records, validation_pairs)
+    elif validation_records:
         val = validate(model, validation_records, prep.channel, settings)
     return ChannelIdentification(
         channel=prep.channel,
@@ -670,9 +702,9 @@ def identify_channels(
     if validation is not None:
         _check_record_lists(validation if isinstance(validation, Mapping)
                             else {"any channel": validation}, "validation")
-    _check_validation(validation, list(records), settings)
+    validation_pairs = _check_validation(validation, list(records), settings)
     preps = [_prepare(list(recs), ch, settings) for ch, recs in records.items()]
-    return _identify_prepared(preps, settings, validation)
+    return _identify_prepared(preps, settings, validation, validation_pairs)
 
 
 def _check_record_lists(records, what: str) -> None:
@@ -698,16 +730,20 @@ def _check_record_lists(records, what: str) -> None:
                 )
 
 
-def _check_validation(validation, channels, settings) -> None:
-    """Reject unusable held-out records before the optimiser runs, not after."""
+def _check_validation(validation, channels, settings) -> dict[str, list]:
+    """Reject unusable held-out records before the optimiser runs, not after.  Returns
+    their preprocessed signals per channel, for :func:`_identify_prepared` to score with
+    (preprocessing them a second time would repeat the same work)."""
+    pairs = {}
     if not validation:
-        return
+        return pairs
     for ch in channels:
         if ch not in CHANNELS:
             continue  # _prepare names the unknown channel
         recs = validation.get(ch) if isinstance(validation, Mapping) else validation
         if recs:
-            _preprocessed(list(recs), ch, settings, role="validation")
+            pairs[ch] = _preprocessed(list(recs), ch, settings, role="validation")[0]
+    return pairs
 
 
 def identify_responses(
@@ -725,7 +761,7 @@ def identify_responses(
     return _identify_prepared(preps, settings, None)
 
 
-def _identify_prepared(preps, settings, validation):
+def _identify_prepared(preps, settings, validation, validation_pairs=None):
     key = jax.random.key(settings.seed)
     t0 = time.perf_counter()
     method = settings.method
@@ -760,31 +796,38 @@ def _identify_prepared(preps, settings, validation):
             evals.append(0)
     else:
         cfg = settings.optimiser()
-        x0s = jnp.stack([p.objective.parameter_map.to_vector(p.start) for p in preps])
+        x0s = np.stack([np.asarray(p.objective.parameter_map.to_vector(p.start))
+                        for p in preps])
         boxes = [_box(x0, settings.search_factor) for x0 in x0s]
-        lo = jnp.stack([b[0] for b in boxes])
-        hi = jnp.stack([b[1] for b in boxes])
+        lo_np, hi_np = np.stack([b[0] for b in boxes]), np.stack([b[1] for b in boxes])
+        lo, hi = _device(lo_np), _device(hi_np)
         k_seed, k_run = jax.random.split(key)
         n_seed = max(1, int(round(settings.seeded_fraction * settings.wolves)))
         seed_keys = jax.random.split(k_seed, len(preps))
-        init = jnp.stack([
-            _seeded_wolves(seed_keys[i], x0s[i], lo[i], hi[i], n_seed, settings.seed_spread)
+        init_np = np.stack([
+            _seeded_wolves(seed_keys[i], x0s[i], boxes[i][0], boxes[i][1], n_seed,
+                           settings.seed_spread)
             for i in range(len(preps))
         ])
+        init = _device(init_np)
         objectives = G.stack_objectives([p.objective for p in preps])
-        res = G.run_batch(cfg, objectives, lo, hi, jax.random.split(k_run, len(preps)),
-                          init_wolves=init)
-        best = res.best_position
+        run_keys = jax.random.split(k_run, len(preps))
+        if (np.all(np.isfinite(lo_np) & np.isfinite(hi_np) & (lo_np < hi_np))
+                and np.all(np.isfinite(init_np))):
+            best, history, evaluations = _search(cfg, objectives, lo, hi, run_keys, init)
+        else:  # run_batch's own checks (skipped inside a trace) say what is wrong
+            res = G.run_batch(cfg, objectives, lo, hi, run_keys, init_wolves=init)
+            best, history, evaluations = res.best_position, res.history_best, res.evaluations
         if method.endswith("+polish"):
             best = _polish_batch(objectives, best, settings.polish_steps)
         xs = list(best)
-        histories = list(np.asarray(res.history_best))
-        evals = [int(e) for e in np.asarray(res.evaluations)]
+        histories = list(np.asarray(history))
+        evals = [int(e) for e in np.asarray(evaluations)]
     jax.block_until_ready(xs)
     runtime = (time.perf_counter() - t0) / len(preps)
     return {
         p.channel: _finish(p, xs[i], histories[i], evals[i], runtime, settings,
                            validation.get(p.channel) if isinstance(validation, Mapping)
-                           else validation)
+                           else validation, (validation_pairs or {}).get(p.channel))
         for i, p in enumerate(preps)
     }

@@ -55,6 +55,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ._aot import cached_jit
+
 __all__ = [
     "r_squared",
     "theil_inequality",
@@ -153,6 +155,7 @@ def _sandwich(jr, residual_variance):
     return _equilibrated_inverse(cov, jnp.sqrt(jnp.abs(jnp.diagonal(cov)))), cov
 
 
+@cached_jit
 @eqx.filter_jit
 def _uncertainty_arrays(residual_fn, theta, noise_variance, residual_variance=None):
     if residual_variance is None:

@@ -34,6 +34,7 @@ import jax.scipy.linalg
 import numpy as np
 from jaxtyping import Array, Complex, Float
 
+from ._aot import cached_jit
 from ._transfer import PAPER_PARAM_NAMES, paper_model_coefficients, paper_model_response
 from ._wls import quartic_to_paper_params
 
@@ -102,6 +103,12 @@ def simulate_transfer_function(
     return y
 
 
+# the same program, kept across runs by the CLI (jaxgwo._aot); simulate_transfer_function
+# itself stays a plain jax.jit function (its .lower and friends are public)
+_simulate_cached = cached_jit(simulate_transfer_function,
+                              name="jaxgwo._models.simulate_transfer_function")
+
+
 class _TransferModel(eqx.Module):
     """Shared behaviour: exports and simulation from ``numerator``/``denominator``."""
 
@@ -127,7 +134,7 @@ class _TransferModel(eqx.Module):
     def simulate(self, t: Float[Array, " time"], u: Float[Array, " time"]) -> Float[Array, " time"]:
         """ZOH output for input samples ``u`` at uniform times ``t`` (see
         :func:`simulate_transfer_function`; equals ``scipy.signal.lsim(..., interp=False)``)."""
-        return simulate_transfer_function(self.numerator, self.denominator, t, u)
+        return _simulate_cached(self.numerator, self.denominator, t, u)
 
 
 def canonicalize_paper_params(p: Float[Array, " 5"]) -> Float[Array, " 5"]:

@@ -250,7 +250,7 @@ def _identify_with_progress(by_channel, settings, validation, quiet):
 
     channels = list(by_channel)
     # held-out records are checked before anything compiles
-    I._check_validation(validation, channels, settings)
+    validation_pairs = I._check_validation(validation, channels, settings)
     with Progress(len(channels) + 1, "identify", "stages", quiet=quiet, eta=False) as bar:
         preps = []
         for i, ch in enumerate(channels):
@@ -258,7 +258,7 @@ def _identify_with_progress(by_channel, settings, validation, quiet):
             preps.append(I._prepare(list(by_channel[ch]), ch, settings))
         bar.update(len(channels), f"{settings.method}: {len(channels)} channel(s) in one "
                    "call" + (", validation" if validation else ""))
-        results = I._identify_prepared(preps, settings, validation)
+        results = I._identify_prepared(preps, settings, validation, validation_pairs)
         bar.update(len(channels) + 1)
     return results
 

@@ -74,7 +74,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def enable_compilation_cache() -> str | None:
     """Use JAX's persistent compilation cache so a second run on the same shapes starts
-    without recompiling.  The directory is ``$JAXGWO_CACHE_DIR``, else
+    without recompiling, and keep the lowered programs beside it (``exported/``,
+    :mod:`jaxgwo._aot`) so that it starts without re-tracing either.  The directory is ``$JAXGWO_CACHE_DIR``, else
     ``$XDG_CACHE_HOME/jaxgwo/xla`` (``~/.cache/jaxgwo/xla``); ``JAXGWO_CACHE_DIR=off``
     disables it.  Returns the directory in use, or None."""
     import os
@@ -94,6 +95,14 @@ def enable_compilation_cache() -> str | None:
     jax.config.update("jax_compilation_cache_dir", path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    # and the lowered programs, so that a warm run skips tracing too (jaxgwo._aot); a
+    # subdirectory without JAX's "-cache" suffix, which JAX's own cache ignores
+    from .._aot import enable
+
+    try:
+        enable(os.path.join(path, "exported"))
+    except OSError:
+        enable(None)
     return path
 
 

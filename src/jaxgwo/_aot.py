@@ -1,0 +1,195 @@
+"""Traced programs kept across processes, so that a warm ``jaxgwo`` run skips tracing.
+
+JAX's persistent compilation cache lets a second process skip XLA *compilation*, but
+not the Python tracing and the lowering to StableHLO that come before it.  For the
+optimiser, the L-BFGS polish and the simulation those two steps take longer than the
+compiled programs run: about 1.5 s of a warm ``jaxgwo identify``.
+
+:func:`cached_jit` wraps an already jitted function.  While :func:`enable` has named a
+directory (the CLI does, beside the compilation cache), each call looks up the program
+lowered for these arguments with :mod:`jax.export` and stored there, and lowers and
+stores it if there is none; the stored program is then compiled (from the persistent
+compilation cache, when it holds it) and run.  It is the very program a plain call
+would compile, so the results are bit-identical.  The key is everything the trace
+depends on: the jaxgwo sources, the versions of JAX, jaxlib, equinox and optax, the JAX
+settings that change a trace, the static arguments (configuration fields, functions by
+name) and the shape and dtype of every array argument.  Arguments it cannot key (an
+object without a stable description, a closure) take the plain path.
+
+Without :func:`enable` (the library's default, and the test suite's) every call is the
+plain jitted call.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import os
+import pickle
+import re
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import numpy as np
+
+__all__ = ["cached_jit", "enable", "enabled_directory"]
+
+_directory: str | None = None
+_programs: dict[str, Callable] = {}  # key -> jitted call of the stored program, this process
+
+# JAX settings that change what a trace produces
+_TRACE_SETTINGS = (
+    "jax_enable_x64",
+    "jax_numpy_dtype_promotion",
+    "jax_numpy_rank_promotion",
+    "jax_default_matmul_precision",
+    "jax_default_prng_impl",
+    "jax_threefry_partitionable",
+)
+_PACKAGES = ("jax", "jaxlib", "equinox", "optax", "numpy")
+
+
+def enable(directory: str | None) -> None:
+    """Store and reuse lowered programs in ``directory`` (None: stop)."""
+    global _directory
+    if directory is not None:
+        os.makedirs(directory, exist_ok=True)
+    _directory = directory
+    _programs.clear()
+
+
+def enabled_directory() -> str | None:
+    return _directory
+
+
+@functools.cache
+def _fingerprint() -> str:
+    """The jaxgwo sources and the versions of the libraries that trace them."""
+    from importlib import metadata  # about 30 ms to import: only when keying a call
+
+    h = hashlib.sha256()
+    root = Path(__file__).parent
+    for path in sorted(root.rglob("*.py")):
+        h.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    for name in _PACKAGES:
+        try:
+            h.update(f"{name}={metadata.version(name)}\0".encode())
+        except metadata.PackageNotFoundError:
+            h.update(f"{name}=?\0".encode())
+    return h.hexdigest()
+
+
+def _describe_static(value) -> str | None:
+    """A description of a static argument that is the same in every process, or None."""
+    if value is None or isinstance(value, (bool, int, float, complex, str, bytes)):
+        return f"{type(value).__name__}:{value!r}"
+    if callable(value) and hasattr(value, "__qualname__") and hasattr(value, "__module__"):
+        if "<locals>" in value.__qualname__ or "<lambda>" in value.__qualname__:
+            return None  # a closure: its captured values are not in the description
+        return f"function:{value.__module__}.{value.__qualname__}"
+    return None
+
+
+_FUNCTION_REPR = re.compile(r"<function (\S+) at 0x[0-9a-f]+>")
+
+
+def _describe_tree(treedef) -> str | None:
+    """``repr(treedef)`` with functions (static fields, such as a bound method's) by name
+    instead of address; None if another object is described by its address."""
+    text = _FUNCTION_REPR.sub(lambda m: f"function:{m.group(1)}", repr(treedef))
+    if "<locals>" in text or "<lambda>" in text or " at 0x" in text:
+        return None
+    return text
+
+
+def _key(name: str, leaves, treedef, static_leaves, static_def, options) -> str | None:
+    statics = [_describe_static(v) for v in static_leaves]
+    trees = [_describe_tree(treedef), _describe_tree(static_def)]
+    if any(s is None for s in statics + trees):
+        return None
+    parts = [
+        name,
+        _fingerprint(),
+        *trees,
+        *statics,
+        *(f"{x.shape}:{x.dtype}:{getattr(x, 'weak_type', False)}" for x in leaves),
+        *(f"{s}={getattr(jax.config, s, None)!r}" for s in _TRACE_SETTINGS),
+        jax.default_backend(),
+        repr(options),
+    ]
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+def _read(path: str):
+    try:
+        with open(path, "rb") as f:
+            return pickle.load(f)
+    except Exception:  # noqa: BLE001  (missing, truncated, or from another JAX: lower again)
+        return None
+
+
+def _write(path: str, exported) -> None:
+    # the vjp builder is a closure (not picklable) and is not needed to call the program
+    data = pickle.dumps(dataclasses.replace(exported, _get_vjp=None))
+    try:
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)  # atomic: a concurrent reader sees all of it or nothing
+    except OSError:
+        pass  # a read-only or full cache: this process still runs the program
+
+
+def _uncommitted(a):
+    if jax.dtypes.issubdtype(a.dtype, jax.dtypes.prng_key):
+        return a  # no host form; keys are not computed on
+    return jax.device_put(np.asarray(a))
+
+
+def cached_jit(fn: Callable | None = None, *, name: str | None = None,
+               compiler_options: Callable[[], tuple] | None = None):
+    """Wrap a jitted ``fn`` (``jax.jit`` or ``equinox.filter_jit``) whose array arguments
+    are traced and whose other arguments are static, and whose result is an array or a
+    tuple of arrays: see the module docstring.  ``compiler_options()`` gives the XLA
+    options the stored program is compiled with (those ``fn`` itself uses)."""
+    if fn is None:
+        return functools.partial(cached_jit, name=name, compiler_options=compiler_options)
+    label = name or f"{fn.__module__}.{getattr(fn, '__qualname__', repr(fn))}"
+
+    @functools.wraps(fn)
+    def wrapper(*args):
+        if _directory is None:
+            return fn(*args)
+        dynamic, static = eqx.partition(args, eqx.is_array)
+        leaves, treedef = jax.tree.flatten(dynamic)
+        static_leaves, static_def = jax.tree.flatten(static)
+        options = tuple(compiler_options()) if compiler_options is not None else ()
+        key = _key(label, leaves, treedef, static_leaves, static_def, options)
+        if key is None:
+            return fn(*args)
+        program = _programs.get(key)
+        if program is None:
+            path = os.path.join(_directory, f"{label}-{key[:40]}.pkl")
+            exported = _read(path)
+            if exported is None:
+
+                def flat(*xs):
+                    return fn(*eqx.combine(jax.tree.unflatten(treedef, xs), static))
+
+                from jax import export as jax_export
+
+                exported = jax_export.export(jax.jit(flat))(*leaves)
+                _write(path, exported)
+            program = jax.jit(exported.call, compiler_options=dict(options) or None)
+            _programs[key] = program
+        # A stored program returns arrays committed to its device, where a plain jitted
+        # call returns uncommitted ones; JAX compiles each later operation separately for
+        # the two, so hand back uncommitted copies (a host round trip of small results).
+        return jax.tree.map(_uncommitted, program(*leaves))
+
+    wrapper.uncached = fn
+    return wrapper

@@ -1,0 +1,104 @@
+"""Lowered programs kept across runs (jaxgwo._aot): same bits as the plain jitted calls,
+stored once, reused, and keyed by what the trace depends on."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxgwo import _aot
+from jaxgwo._identify import IdentifySettings, identify_channels
+from jaxgwo._models import simulate_transfer_function
+
+from test_identify import SMALL, _records
+
+
+@pytest.fixture
+def aot_dir(tmp_path):
+    _aot.enable(str(tmp_path / "exported"))
+    yield tmp_path / "exported"
+    _aot.enable(None)
+
+
+def _summary(results):
+    out = {}
+    for ch, r in results.items():
+        v = r.validation
+        out[ch] = (np.asarray(r.model.to_array()).tobytes(), r.cost_J, r.wls_cost_J, r.mse,
+                   np.asarray(r.convergence).tobytes(), r.evaluations,
+                   np.asarray(r.uncertainty.cramer_rao).tobytes(),
+                   np.asarray(r.uncertainty.fisher).tobytes(),
+                   None if v is None else (v.r2, v.tic, v.rms, v.per_record_r2))
+    return out
+
+
+def test_identify_is_bit_identical_with_stored_programs(aot_dir, monkeypatch):
+    recs = _records(n=2)
+    settings = IdentifySettings(method="wls-igwo+polish", **SMALL)
+    args = ({"lateral": recs[:1]}, settings, {"lateral": recs[1:]})
+    _aot.enable(None)
+    plain = _summary(identify_channels(*args))
+    _aot.enable(str(aot_dir))
+    cold = _summary(identify_channels(*args))  # lowers and stores
+    stored = sorted(p.name for p in aot_dir.iterdir())
+    names = {n.split("-")[0] for n in stored}
+    assert {"jaxgwo._identify._search", "jaxgwo._identify._polish_batch",
+            "jaxgwo._metrics._uncertainty_arrays",
+            "jaxgwo._models.simulate_transfer_function"} <= names
+    # a new process: nothing in memory, and nothing may be traced again
+    _aot.enable(str(aot_dir))
+
+    def no_export(*a, **k):
+        raise AssertionError("a stored program was lowered again")
+
+    monkeypatch.setattr(jax.export, "export", no_export)
+    warm = _summary(identify_channels(*args))
+    assert sorted(p.name for p in aot_dir.iterdir()) == stored
+    assert cold == plain
+    assert warm == plain
+
+
+def test_key_follows_shapes_and_statics(aot_dir):
+    t = jnp.arange(100.0) * 0.01
+    u = jnp.sin(t)
+    num, den = jnp.asarray([2.0]), jnp.asarray([1.0, 0.5, 2.0])
+    y = _aot.cached_jit(simulate_transfer_function, name="sim")(num, den, t, u)
+    assert np.array_equal(np.asarray(y), np.asarray(simulate_transfer_function(num, den, t, u)))
+    assert not y.committed  # later eager operations see the same arrays as without it
+    _aot.cached_jit(simulate_transfer_function, name="sim")(num, den, t[:50], u[:50])
+    assert len(list(aot_dir.iterdir())) == 2  # a new shape is a new program
+
+    @_aot.cached_jit
+    @jax.jit
+    def double(x):
+        return 2 * x
+
+    double(t)
+    double(t)
+    assert len(list(aot_dir.iterdir())) == 3  # the same call is stored once
+
+
+def test_unkeyable_arguments_take_the_plain_path(aot_dir):
+    scale = 3.0
+
+    @_aot.cached_jit
+    def apply(fn, x):
+        return jax.jit(fn)(x)
+
+    out = apply(lambda x: scale * x, jnp.ones(3))  # a closure: its captures are not keyed
+    assert np.array_equal(np.asarray(out), np.full(3, 3.0))
+    assert not aot_dir.exists() or not list(aot_dir.iterdir())
+
+
+def test_a_damaged_file_is_lowered_again(aot_dir):
+    @_aot.cached_jit
+    @jax.jit
+    def square(x):
+        return x * x
+
+    square(jnp.arange(3.0))
+    (path,) = aot_dir.iterdir()
+    path.write_bytes(b"not a pickle")
+    _aot.enable(str(aot_dir))  # a new process
+    assert np.array_equal(np.asarray(square(jnp.arange(3.0))), [0.0, 1.0, 4.0])
+    assert path.read_bytes() != b"not a pickle"
