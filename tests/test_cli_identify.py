@@ -136,3 +136,21 @@ def test_help_texts(capsys):
     ident = _help(["identify", "--help"], capsys)
     assert "--export FILE" in ident and "--report OUT.html" in ident
     assert "(default: wls-igwo+polish)" in ident and "lateral_num" in ident
+
+
+def test_only_the_console_script_freezes_the_heap(tmp_path):
+    # the script spares the interpreter's final collection (gc.freeze); main(argv) called
+    # from Python must not, or nothing alive at that point would ever be collected
+    import gc
+    import subprocess
+    import sys
+
+    before = gc.get_freeze_count()
+    assert main(["identify", str(tmp_path / "missing.csv")]) == 2
+    assert gc.get_freeze_count() == before
+    code = ("import gc, sys; from jaxgwo.cli import main; "
+            f"sys.argv = ['jaxgwo', 'identify', {str(tmp_path / 'missing.csv')!r}]; "
+            "rc = main(); print(rc, gc.get_freeze_count() > 0)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["2", "True"]
