@@ -34,6 +34,7 @@ back on ``K`` afterwards.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -43,7 +44,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from . import _gwo as G
 from ._aot import cached_jit
@@ -354,11 +354,30 @@ def _box(x0, factor: float) -> tuple[np.ndarray, np.ndarray]:
 def _seeded_wolves(key, x0, lo, hi, n, spread) -> np.ndarray:
     """``n`` wolves normal around ``x0`` (standard deviation ``spread``), clipped to the
     box; wolf 0 is ``x0`` itself."""
+    x0 = np.asarray(x0, dtype=float)
+    return _seeded_from_normals(jax.random.normal(key, (n, x0.shape[0])), x0, lo, hi, spread)
+
+
+def _seeded_from_normals(normals, x0, lo, hi, spread) -> np.ndarray:
+    """:func:`_seeded_wolves` given its unit normal draws ``(n, dim)``."""
     x0, lo, hi = (np.asarray(a, dtype=float) for a in (x0, lo, hi))
-    noise = spread * np.asarray(jax.random.normal(key, (n, x0.shape[0])))
+    noise = spread * np.asarray(normals)
     wolves = _clip(x0[None] + noise, lo, hi)
     wolves[0] = _clip(x0, lo, hi)
     return wolves
+
+
+@functools.partial(jax.jit, static_argnums=(1, 2, 3))
+def _search_randomness(seed, channels: int, n_seed: int, dim: int):
+    """The unit normals of each channel's seeded wolves and each channel's optimiser key,
+    from ``seed``: the splits :func:`_identify_prepared` made one call at a time, in one
+    program (integer hashing and the normal transform of each draw, as in
+    ``jax.random.normal``; the same bits)."""
+    k_seed, k_run = jax.random.split(jax.random.key(seed))
+    seed_keys = jax.random.split(k_seed, channels)
+    normals = jnp.stack([jax.random.normal(seed_keys[i], (n_seed, dim))
+                         for i in range(channels)])
+    return normals, jax.random.split(k_run, channels)
 
 
 def _clip(x, lo, hi):
@@ -369,6 +388,10 @@ def _clip(x, lo, hi):
 @eqx.filter_jit
 def polish(objective, x0, steps: int):
     """L-BFGS polish (optax) of ``objective`` from ``x0``; returns the best point seen."""
+    # imported when traced: a warm CLI run reuses the stored program and skips optax's
+    # import (about 0.1 s)
+    import optax
+
     opt = optax.lbfgs()
     vg = optax.value_and_grad_from_state(objective)
 
@@ -451,7 +474,8 @@ def _validate_pairs(model: PaperModel, records: Sequence[FlightRecord], pairs) -
     """:func:`validate` of records whose signals are already preprocessed (``pairs``)."""
     times, meas, pred = [], [], []
     for rec, (u, y) in zip(records, pairs):
-        t = np.asarray(rec.time) - float(rec.time[0])
+        t = np.asarray(rec.time)
+        t = t - float(t[0])
         yp = np.asarray(model.simulate(_device(t), _device(u)))
         times.append(t)
         meas.append(y)
@@ -614,12 +638,17 @@ def _dependence_corrected(unc: ParameterUncertainty, response: FrequencyResponse
     m = float(np.sum(np.asarray(response.mask)))
     m_eff = independent_points(response)
     f = math.sqrt(m / m_eff) if m_eff > 0 else float("inf")
+    # host NumPy: a product or quotient rounds as XLA's does, without compiling one
+    fields = (unc.fisher, unc.covariance, unc.cramer_rao, unc.cramer_rao_percent,
+              unc.insensitivity, unc.insensitivity_percent)
+    scales = (1.0 / f**2, f**2, f, f, f, f)
+    fisher, *rest = (np.asarray(a) for a in fields)
+    scaled = (fisher / f**2, *(a * k for a, k in zip(rest, scales[1:])))
     return eqx.tree_at(
         lambda u: (u.fisher, u.covariance, u.cramer_rao, u.cramer_rao_percent,
                    u.insensitivity, u.insensitivity_percent),
         unc,
-        (unc.fisher / f**2, unc.covariance * f**2, unc.cramer_rao * f,
-         unc.cramer_rao_percent * f, unc.insensitivity * f, unc.insensitivity_percent * f),
+        tuple(_device(a) for a in scaled),
     )
 
 
@@ -637,10 +666,18 @@ def _measured_variances(prep: _Prepared):
     return prep.objective.residual_variances(prep.response.random_error)
 
 
+@eqx.filter_jit
+def _best_params(pmap: ParameterMap, x):
+    """The canonical paper parameters of the optimiser's log-vector ``x``, in one compiled
+    program (exp, products, quotients and selections: no addition for XLA to fuse into a
+    multiply-add, so the bits are those of the operations run one by one)."""
+    return canonicalize_paper_params(pmap.params_from_vector(x))
+
+
 def _finish(prep: _Prepared, x_best, convergence, evaluations, runtime, settings,
             validation_records, validation_pairs=None) -> ChannelIdentification:
     pmap = prep.objective.parameter_map
-    p = canonicalize_paper_params(pmap.params_from_vector(x_best))
+    p = _best_params(pmap, x_best)
     model_n = PaperModel.from_array(p)
     cost = float(prep.objective.cost(model_n))
     if not (np.all(np.isfinite(np.asarray(p))) and math.isfinite(cost)):
@@ -762,7 +799,6 @@ def identify_responses(
 
 
 def _identify_prepared(preps, settings, validation, validation_pairs=None):
-    key = jax.random.key(settings.seed)
     t0 = time.perf_counter()
     method = settings.method
     if method == "wls":
@@ -772,6 +808,7 @@ def _identify_prepared(preps, settings, validation, validation_pairs=None):
     elif method == "paper":
         from ._paper_mode import identify_paper_mode
 
+        key = jax.random.key(settings.seed)
         xs, histories, evals = [], [], []
         for i, p in enumerate(preps):
             r = identify_paper_mode(
@@ -801,17 +838,17 @@ def _identify_prepared(preps, settings, validation, validation_pairs=None):
         boxes = [_box(x0, settings.search_factor) for x0 in x0s]
         lo_np, hi_np = np.stack([b[0] for b in boxes]), np.stack([b[1] for b in boxes])
         lo, hi = _device(lo_np), _device(hi_np)
-        k_seed, k_run = jax.random.split(key)
         n_seed = max(1, int(round(settings.seeded_fraction * settings.wolves)))
-        seed_keys = jax.random.split(k_seed, len(preps))
+        normals, run_keys = _search_randomness(settings.seed, len(preps), n_seed,
+                                               x0s.shape[1])
+        normals = np.asarray(normals)
         init_np = np.stack([
-            _seeded_wolves(seed_keys[i], x0s[i], boxes[i][0], boxes[i][1], n_seed,
-                           settings.seed_spread)
+            _seeded_from_normals(normals[i], x0s[i], boxes[i][0], boxes[i][1],
+                                 settings.seed_spread)
             for i in range(len(preps))
         ])
         init = _device(init_np)
         objectives = G.stack_objectives([p.objective for p in preps])
-        run_keys = jax.random.split(k_run, len(preps))
         if (np.all(np.isfinite(lo_np) & np.isfinite(hi_np) & (lo_np < hi_np))
                 and np.all(np.isfinite(init_np))):
             best, history, evaluations = _search(cfg, objectives, lo, hi, run_keys, init)
@@ -820,7 +857,7 @@ def _identify_prepared(preps, settings, validation, validation_pairs=None):
             best, history, evaluations = res.best_position, res.history_best, res.evaluations
         if method.endswith("+polish"):
             best = _polish_batch(objectives, best, settings.polish_steps)
-        xs = list(best)
+        xs = list(np.asarray(best))  # rows on the host: no per-row slicing program
         histories = list(np.asarray(history))
         evals = [int(e) for e in np.asarray(evaluations)]
     jax.block_until_ready(xs)

@@ -155,6 +155,12 @@ def canonicalize_paper_params(p: Float[Array, " 5"]) -> Float[Array, " 5"]:
     return jnp.where((m > 0) & (wr > ws), swapped, p)
 
 
+# One compiled program instead of a dozen operations dispatched one by one (each of which
+# compiles in a fresh process).  Bit-identical: the function multiplies, divides, takes
+# square roots and selects, and never adds, so XLA has no multiply-add to fuse.
+_canonicalize_jit = jax.jit(canonicalize_paper_params)
+
+
 class PhysicalDerivatives(eqx.Module):
     r"""The paper's physical quantities (Table 2) from a :class:`PaperModel`, eqs. (10)-(16).
 
@@ -222,7 +228,7 @@ class PaperModel(_TransferModel):
 
     def canonical(self) -> "PaperModel":
         """The same transfer function with the servo as the faster pair."""
-        return PaperModel.from_array(canonicalize_paper_params(self.to_array()))
+        return PaperModel.from_array(_canonicalize_jit(self.to_array()))
 
     def to_quartic(self) -> "QuarticModel":
         num, den = self.numerator, self.denominator
