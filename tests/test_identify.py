@@ -190,3 +190,21 @@ def test_paper_mode_method_reaches_the_traditional_optimum(recs):
     assert p.cost_J <= p.wls_cost_J + 1e-9
     assert p.cost_J == pytest.approx(t.cost_J, rel=0.02)
     assert float(p.model.K) < 0 and p.evaluations > 0
+
+
+@pytest.mark.parametrize("seed", [0, 1, -5, 2**40 + 3, 2**63 - 1, -(2**63)])
+def test_search_randomness_is_the_eager_splits(seed):
+    # one compiled program in place of split/split/normal dispatched one at a time: the
+    # same keys and the same normal draws, bit for bit
+    import jax
+
+    from jaxgwo._identify import _search_randomness
+
+    normals, run_keys = _search_randomness(seed, 2, 3, 5)
+    k_seed, k_run = jax.random.split(jax.random.key(seed))
+    seed_keys = jax.random.split(k_seed, 2)
+    for i in range(2):
+        ref = np.asarray(jax.random.normal(seed_keys[i], (3, 5)))
+        assert np.asarray(normals[i]).tobytes() == ref.tobytes()
+    assert np.array_equal(np.asarray(jax.random.key_data(run_keys)),
+                          np.asarray(jax.random.key_data(jax.random.split(k_run, 2))))
