@@ -220,6 +220,8 @@ class AmplitudeDependence:
     """Median gain change (dB) from the low- to the high-amplitude data."""
     high_minus_low_deg: float
     note: str
+    tested: bool = True
+    """False when the records could not be compared (too little amplitude contrast or data)."""
 
 
 def amplitude_dependence(
@@ -231,15 +233,18 @@ def amplitude_dependence(
     min_ratio: float = 1.3,
     nsigma: float = 3.0,
     min_fraction: float = 0.2,
+    bias_floor: float = 0.01,
 ) -> AmplitudeDependence:
     """Split every record into halves, group the pieces by input rms into a low- and a
     high-amplitude set, estimate each set's response on ``w`` and compare them.
 
     The two responses of a linear system agree within their random errors; dependence is
     declared when more than ``min_fraction`` of the common passing points differ by more
-    than ``nsigma`` combined bounds.  Needs an amplitude ratio of at least ``min_ratio``
-    between the sets (for example two sweeps of different amplitude); otherwise the note
-    says so and ``dependent`` is False.
+    than ``nsigma`` combined bounds (random errors plus a relative ``bias_floor``).  Needs
+    an amplitude ratio of at least ``min_ratio`` between the sets (for example two sweeps
+    of different amplitude); otherwise the note says so and ``dependent`` and ``tested``
+    are False.  Each set holds half-records, so only the frequencies their length
+    resolves are compared.
     """
     pieces = []
     for u, y in pairs:
@@ -248,7 +253,7 @@ def amplitude_dependence(
             if b - a > 16:
                 pieces.append((u[a:b], y[a:b], float(np.std(u[a:b]))))
     if len(pieces) < 2:
-        return AmplitudeDependence(False, 1.0, 0.0, 0.0, 0.0, "too little data to compare amplitudes")
+        return AmplitudeDependence(False, 1.0, 0.0, 0.0, 0.0, "too little data to compare amplitudes", False)
     amps = np.array([p[2] for p in pieces])
     order = np.argsort(amps)
     half = len(pieces) // 2
@@ -258,19 +263,29 @@ def amplitude_dependence(
     if ratio < min_ratio:
         return AmplitudeDependence(
             False, ratio, 0.0, 0.0, 0.0,
-            f"input amplitudes differ by only x{ratio:.2f}; fly two sweeps of clearly different amplitude to test",
+            f"input amplitudes differ by only x{ratio:.2f}; fly two sweeps of clearly different amplitude to test", False,
         )  # fmt: skip
+    # Each set holds half-records only: keep the frequencies whose default window (two
+    # periods) still gives four 50 %-overlapping averages in the longer piece of both sets
+    # (composite_frequency_response's defaults), instead of failing on the lowest ones.
+    w = np.asarray(w, float)
+    shortest_set = min(max(u.size for u, _y in s) for s in (low, high)) / sample_rate_hz
+    w = w[w >= 2.0 * 2.0 * np.pi * 2.5 / shortest_set * 1.001]
+    if w.size < 5:
+        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, "records too short to estimate a response per amplitude", False)
     try:
-        rl = composite_frequency_response(low, sample_rate_hz, np.asarray(w), coherence_threshold=coherence_threshold)
-        rh = composite_frequency_response(high, sample_rate_hz, np.asarray(w), coherence_threshold=coherence_threshold)
+        rl = composite_frequency_response(low, sample_rate_hz, w, coherence_threshold=coherence_threshold)
+        rh = composite_frequency_response(high, sample_rate_hz, w, coherence_threshold=coherence_threshold)
     except ValueError as err:
-        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, f"could not estimate both responses: {err}")
+        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, f"could not estimate both responses: {err}", False)
     m = np.asarray(rl.mask) & np.asarray(rh.mask)
     if m.sum() < 5:
-        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, "fewer than 5 frequencies pass in both amplitude sets")
+        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, "fewer than 5 frequencies pass in both amplitude sets", False)
     Hl, Hh = np.asarray(rl.H)[m], np.asarray(rh.H)[m]
     el, eh = np.asarray(rl.random_error)[m], np.asarray(rh.random_error)[m]
-    e = np.sqrt(el**2 + eh**2)
+    # plus a floor for the estimator's bias (leakage, windows), which the random-error
+    # formula leaves out: with little noise it would flag differences of hundredths of a dB
+    e = np.sqrt(el**2 + eh**2 + bias_floor**2)
     dmag = _DB_PER_NEPER * np.log(np.abs(Hh) / np.abs(Hl))
     dph = np.rad2deg(np.angle(Hh / Hl))
     z = np.maximum(np.abs(dmag) / (20.0 * np.log10(1.0 + e)), np.abs(np.deg2rad(dph)) / e)
