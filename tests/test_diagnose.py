@@ -4,6 +4,7 @@ ranking on fixed simulated blind cases, the JSON schema and the CLI end to end."
 import argparse
 import json
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -108,6 +109,80 @@ def test_amplitude_dependence_linear_vs_saturated():
     assert a_sat.high_minus_low_db < -1.0  # clipping lowers the high-amplitude gain
     flat = amplitude_dependence([(0.05 * np.r_[sweep(t[:half]), sweep(t[:half])], lin)], FS, w)
     assert not flat.dependent and "differ by only" in flat.note
+
+
+def _two_sweep_record(nonlinearity):
+    """The blind study's TRAIN layout: two 25 s sweeps, amplitudes 0.05 and 0.15, in one 57 s
+    record whose halves (28.5 s) are too short for the 1 rad/s windows of the full band."""
+    t = np.arange(int((3 + D + 2 + D + 2) * FS)) / FS
+    tj = jnp.asarray(t)
+    u = np.asarray(frequency_sweep(tj, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.05, start_s=3)
+                   + frequency_sweep(tj, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.15, start_s=5 + D))  # fmt: skip
+    noise = 1e-4 * np.asarray(jax.random.normal(jax.random.key(0), (t.size,)))
+    return u, np.asarray(MODEL.simulate(tj, jnp.asarray(nonlinearity(u)))) + noise
+
+
+def _play(u, width):
+    """Backlash of total ``width`` (the simulator's play operator), sample by sample."""
+    out, s = np.zeros_like(u), 0.0
+    for i, x in enumerate(u):
+        s = min(max(s, x - 0.5 * width), x + 0.5 * width)
+        out[i] = s
+    return out
+
+
+def test_amplitude_dependence_on_half_records_and_its_sign():
+    w = np.geomspace(1.0, 120.0, 80)
+    lin = amplitude_dependence([_two_sweep_record(lambda u: u)], FS, w)
+    sat = amplitude_dependence([_two_sweep_record(lambda u: np.clip(u, -0.08, 0.08))], FS, w)
+    play = amplitude_dependence([_two_sweep_record(lambda u: _play(u, 0.03))], FS, w)
+    # the halves cannot resolve 1 rad/s; the test must still run on the band they do resolve
+    assert lin.tested and sat.tested and play.tested
+    assert not lin.dependent and sat.dependent and play.dependent
+    # saturation costs the large inputs gain, backlash the small ones
+    assert sat.high_minus_low_db < -1.0 and play.high_minus_low_db > 0.5
+
+
+def test_amplitude_agreement_follows_the_effects_sign():
+    from jaxgwo._diagnose import _amplitude_agreement
+    from jaxgwo._diagnose_where import AmplitudeDependence
+
+    falls = AmplitudeDependence(True, 3.0, 0.5, -1.0, -2.0, "")
+    rises = AmplitudeDependence(True, 3.0, 0.5, 0.5, 2.0, "")
+    flat = AmplitudeDependence(False, 3.0, 0.05, 0.0, 0.0, "")
+    untested = AmplitudeDependence(False, 1.1, 0.0, 0.0, 0.0, "", False)
+    assert [_amplitude_agreement(n, falls) for n in ("rate_limit", "saturation", "backlash")] == [1.0, 1.0, -0.5]
+    assert [_amplitude_agreement(n, rises) for n in ("rate_limit", "saturation", "backlash")] == [-0.5, -0.5, 1.0]
+    assert _amplitude_agreement("saturation", flat) == -1.0 and _amplitude_agreement("backlash", untested) == 0.0
+
+
+def test_delay_aware_start_recovers_a_long_delay_and_the_gain_sign():
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import delay_aware_start
+    from jaxgwo._models import ParameterMap
+
+    delay = 0.07  # 250 deg at 10 Hz: a delay-free WLS fit picks the wrong gain sign
+    resp = _response(lambda w: MODEL.frequency_response(w) * time_delay_response(w, delay))
+    sign = -1.0 if float(MODEL.K) > 0 else 1.0  # what a delay-free fit may wrongly conclude
+    obj = CiferObjective.from_response(eqx.tree_at(lambda r: r.H, resp, resp.H * sign),
+                                       ParameterMap.for_model(MODEL))  # fmt: skip
+    ds = delay_aware_start(resp, obj, sign, np.arange(0.0, 0.15, 0.005))
+    assert ds.sign == np.sign(float(MODEL.K))
+    assert abs(ds.delay_s - delay) <= 0.0025 + 1e-12  # the trial grid's half step
+    assert ds.cost_J < 1.0  # WLS on the exactly delay-compensated, noise-free response is all but exact
+
+
+def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
+    from jaxgwo._diagnose import _time_pairs
+    from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
+
+    train, _val = _case(None, seed=2)
+    tt = _time_pairs(train, "lateral", SETTINGS.identify)
+    base = ModelSpec(np.asarray(MODEL.to_array(), float))
+    *fits, null = fit_nonlinear_candidates(base, tt, key=jax.random.key(0), wolves=6, iterations=6, include_null=True)
+    # each candidate's box reaches where its nonlinearity no longer acts: it nests the null
+    for f in fits:
+        assert f.train_mse <= null.train_mse * (1 + 1e-9), f.effects
 
 
 # -- ranking on fixed blind cases, the report, the CLI -----------------------------------------

@@ -36,10 +36,14 @@ from ._diagnose_where import (
     residual_tests,
 )
 from ._diagnose_which import (
+    _Z_HI,
+    _Z_NEUTRAL,
     FREQUENCY_DOMAIN,
     NONLINEAR,
     CandidateScore,
     ModelSpec,
+    _flipped_objective,
+    delay_aware_start,
     f_test_p,
     fit_cross_coupling,
     fit_linear_candidates,
@@ -102,8 +106,16 @@ class DiagnoseSettings:
     error with strongly correlated residuals, must also be confirmed on the held-out
     records: z-score above ``z_min_time`` and a positive gap; a nonlinear one must also
     cut the null refit's identification output error by the factor ``min_error_ratio``
-    (an effect size: without it a mild clipping fits gust-induced error significantly).  The defaults were set on
-    the blind study's seed-0 cases (``benchmarks/blind_diagnosis.py``) and checked on seed 1.
+    (an effect size: without it a mild clipping fits gust-induced error significantly),
+    unless the amplitude test of step 2 independently shows the change with amplitude
+    that this nonlinearity predicts; then its output-error F-test need only pass at
+    ``alpha_amplitude``.  ``alpha`` and ``z_min_time`` were set on the blind study's
+    seed-0 cases (``benchmarks/blind_diagnosis.py``) and checked on seed 1;
+    ``min_error_ratio`` (1.2 there) was lowered to 1.1 on seeds 7 and 8, once every
+    nonlinear refit nests the null refit (before, a candidate could fit worse than the
+    null and the ratio carried that search noise), and ``alpha_amplitude`` (the
+    conventional 5 %, the amplitude test and the held-out confirmation being separate
+    evidence) was checked there.
     ``nsigma``: the random-error multiple that flags a frequency band.
     """
 
@@ -113,7 +125,8 @@ class DiagnoseSettings:
     alpha: float = 1e-3
     z_min: float = -2.0
     z_min_time: float = 1.0
-    min_error_ratio: float = 1.2
+    min_error_ratio: float = 1.1
+    alpha_amplitude: float = 0.05
     min_gap: float = -0.5
     nsigma: float = 3.0
     candidates: tuple[str, ...] = tuple(EFFECTS)
@@ -246,14 +259,25 @@ class Diagnosis:
         return "\n".join(lines)
 
 
+def _amplitude_agreement(name: str, amp: AmplitudeDependence) -> float:
+    """How well the amplitude test matches a servo nonlinearity, in [-1, 1]: 0 when the
+    records cannot test it, -1 when the response does not change with amplitude, 1 when
+    it changes the way the effect predicts (backlash costs small inputs most, so the gain
+    rises with amplitude; a rate limit or saturation costs large inputs most, so it
+    falls), -0.5 when it changes the other way."""
+    if not amp.tested:
+        return 0.0
+    if not amp.dependent:
+        return -1.0
+    rises = amp.high_minus_low_db > 0.0
+    return 1.0 if rises == (name == "backlash") else -0.5
+
+
 def _agreement(name: str, fm: FrequencyMismatch, amp: AmplitudeDependence, off: ResidualTests | None) -> float:
     """How well an effect's expected signature matches the step-2 detectors, in [-1, 1]."""
     lag = fm.equivalent_delay_s > 2.0 * fm.equivalent_delay_sigma_s and fm.equivalent_delay_s > 0.002
-    contrast = "differ by only" not in amp.note and "too little" not in amp.note
     if name in NONLINEAR:
-        if not contrast:
-            return 0.0
-        return 1.0 if amp.dependent else -1.0
+        return _amplitude_agreement(name, amp)
     if name == "cross_coupling":
         if off is None:
             return 0.0
@@ -353,6 +377,23 @@ def diagnose(
     lin = fit_linear_candidates(prep.objective, x_nom, lin_names, k_lin, wolves=settings.wolves,
                                 iterations=settings.iterations, dependence_factor=dep)  # fmt: skip
     sign_vec = np.array([prep.sign, 1, 1, 1, 1])
+    # (objective, start, effect seed, sign vector) each linear candidate was refitted from
+    lin_from = {f.effects: (prep.objective, x_nom, None, sign_vec) for f in lin}
+    if ("time_delay",) in lin_from:
+        # a long delay can throw the delay-free nominal fit (and the refit searched around
+        # it) far off, even to the wrong gain sign: refit from a delay-aware start as well
+        i_td = [f.effects for f in lin].index(("time_delay",))
+        ds = delay_aware_start(prep.response, prep.objective, prep.sign, np.arange(0.0, _Z_HI[0] + 1e-9, 0.005),
+                               ids.sk_iterations)  # fmt: skip
+        if ds is not None and ds.cost_J < lin[i_td].cost_J:
+            obj = prep.objective if ds.sign == prep.sign else _flipped_objective(prep.objective)
+            seed = np.r_[ds.delay_s, _Z_NEUTRAL[1:]]
+            (f_td,) = fit_linear_candidates(obj, ds.x, [("time_delay",)], jax.random.fold_in(k_lin, 1),
+                                            wolves=settings.wolves, iterations=settings.iterations,
+                                            dependence_factor=dep, effect_seed=seed)  # fmt: skip
+            if f_td.cost_J < lin[i_td].cost_J:
+                lin[i_td] = f_td
+                lin_from[("time_delay",)] = (obj, ds.x, seed, np.array([ds.sign, 1, 1, 1, 1]))
     tc = rt.correlation_time_s if math.isfinite(rt.correlation_time_s) else dt
     fs = 1.0 / dt
     n_train_eff = max(2.0, sum(y.size for *_r, y in tt) * dt / max(tc, dt))
@@ -366,17 +407,17 @@ def diagnose(
     J0_sim = sim_J(nom_spec)
 
     def score(effects, params, sigma, spec, cost, J0, n_params, baseline=None, extra_p=None, j_required=True, evidence=None,
-              time_domain=False):
+              time_domain=False, alpha=None):
         pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv]
         ag = float(np.mean([_agreement(e, fm, amp, off_rt) for e in effects]))
         return score_candidate(tuple(effects), params, sigma, pred, val_meas, val_nom, r2_nom, cost, J0, m_eff, n_params,
-                               tc, dt, ag, baseline_predicted=baseline, extra_train_p=extra_p, j_required=j_required, evidence=evidence, alpha=settings.alpha,
+                               tc, dt, ag, baseline_predicted=baseline, extra_train_p=extra_p, j_required=j_required, evidence=evidence, alpha=settings.alpha if alpha is None else alpha,
                                z_min=settings.z_min_time if time_domain else settings.z_min,
                                min_gap=0.0 if time_domain else settings.min_gap)  # fmt: skip
 
     specs = {}
     for f in lin:
-        spec = ModelSpec(np.exp(f.x[:5]) * sign_vec, f.params)
+        spec = ModelSpec(np.exp(f.x[:5]) * lin_from[f.effects][3], f.params)
         specs[f.effects] = spec
         k = sum(len(EFFECTS[e].params) for e in f.effects)
         scored.append(score(f.effects, f.params, f.sigma, spec, f.cost_J, float(nominal.cost_J), k))
@@ -405,13 +446,22 @@ def diagnose(
             spec = f.spec(nom_spec)
             specs[f.effects] = spec
             p_mse = f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4)
-            if null.train_mse < settings.min_error_ratio * f.train_mse:
+            # Gusts dominate the output error, so a real servo nonlinearity may cut it by only
+            # a few per cent.  Trust a small cut when the frequency-domain amplitude test,
+            # independent of the output-error fit, shows the change with amplitude this
+            # effect predicts; otherwise ask for an effect size (a mild clipping fits
+            # gust-induced error significantly).
+            corroborated = _amplitude_agreement(f.effects[0], amp) > 0.0
+            level = settings.alpha_amplitude if corroborated else settings.alpha
+            if not corroborated and null.train_mse < settings.min_error_ratio * f.train_mse:
                 p_mse = 1.0  # significant perhaps, but too small an effect to trust
             ev = -(math.log(f.train_mse / null.train_mse) + math.log(n_nl) / n_nl)
             sc = score(f.effects, f.params, f.sigma, spec, sim_J(spec), J0_sim, 1, baseline=val_null, extra_p=p_mse,
-                       j_required=False, evidence=ev, time_domain=True)  # fmt: skip
+                       j_required=False, evidence=ev, time_domain=True, alpha=level)  # fmt: skip
             det = {"train_mse": f.train_mse, "null_train_mse": null.train_mse, "n_eff_train": n_nl,
-                   "train_corr_time_s": tc_tr, "p_val_tc": f_test_p(null.train_mse, f.train_mse, 1, n_train_eff - 4)}  # fmt: skip
+                   "train_corr_time_s": tc_tr, "p_val_tc": f_test_p(null.train_mse, f.train_mse, 1, n_train_eff - 4),
+                   "p_output_error": f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4),
+                   "amplitude_corroborates": float(corroborated)}  # fmt: skip
             scored.append(dataclasses.replace(sc, detail=det))
     ranking = tuple(sorted(scored, key=lambda c: -c.score))
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
@@ -423,9 +473,10 @@ def diagnose(
         pair = (a, b)
         k2 = sum(len(EFFECTS[e].params) for e in pair)
         if a in FREQUENCY_DOMAIN and b in FREQUENCY_DOMAIN:
-            (f,) = fit_linear_candidates(prep.objective, x_nom, [pair], k_comb, wolves=settings.wolves,
-                                         iterations=settings.iterations, dependence_factor=dep)  # fmt: skip
-            spec = ModelSpec(np.exp(f.x[:5]) * sign_vec, f.params)
+            obj, x0, seed, sv = lin_from[("time_delay",)] if "time_delay" in pair else lin_from[(a,)]
+            (f,) = fit_linear_candidates(obj, x0, [pair], k_comb, wolves=settings.wolves, iterations=settings.iterations,
+                                         dependence_factor=dep, effect_seed=seed)  # fmt: skip
+            spec = ModelSpec(np.exp(f.x[:5]) * sv, f.params)
             combined = score(pair, f.params, f.sigma, spec, f.cost_J, float(nominal.cost_J), k2)
         else:
             # no joint refit across domains: the nonlinear or cross-coupling part is refitted

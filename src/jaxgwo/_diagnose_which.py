@@ -137,6 +137,62 @@ class AugmentedCifer(eqx.Module):
 
 
 @dataclass(frozen=True)
+class DelayStart:
+    """A start for the ``time_delay`` refit that does not come from the nominal fit."""
+
+    sign: float
+    """Sign normalisation of the measured response that goes with ``x``."""
+    x: np.ndarray
+    """``(log K, log tau, log M, log omega_s, log zeta_s)`` of the sign-normalised model."""
+    delay_s: float
+    cost_J: float
+    """``J`` of the paper model ``x`` times the delay against the response normalised by ``sign``."""
+
+
+def delay_aware_start(response, objective: CiferObjective, sign: float, delays_s: Sequence[float],
+                      sk_iterations: int = 5) -> DelayStart | None:
+    r"""The best WLS (Levy) start of the paper model on the measured response with each trial
+    delay removed (:math:`H e^{j\omega	au_d}`), scored by ``J`` of the model times the delay.
+
+    A long delay (tens of ms) turns the phase of a 10 Hz sweep by more than 180 deg: the
+    delay-free nominal fit then lands far away, sometimes with the gain's sign flipped,
+    and a refit searched around it cannot recover.  ``objective`` is the CIFER objective
+    of the response normalised by ``sign``; a start of the other sign is scored on the
+    flipped objective (``J`` of a model against :math:`-H` is that of its negative
+    against :math:`H`).  ``None`` when no trial delay gives a usable start."""
+    from ._identify import _gain_sign, wls_start
+
+    w = np.asarray(response.w)
+    best = None
+    flipped = _flipped_objective(objective)
+    for d in delays_s:
+        shift = jnp.asarray(np.exp(1j * w * d))
+        rd = eqx.tree_at(lambda r: r.H, response, response.H * shift)
+        try:
+            sg = _gain_sign(rd)
+            start, _note = wls_start(eqx.tree_at(lambda r: r.H, rd, rd.H * sg), sk_iterations)
+        except (ValueError, RuntimeError):
+            continue
+        p = np.asarray(start.to_array(), float)
+        if p[0] < 0:
+            sg, p = -sg, p * np.array([-1.0, 1, 1, 1, 1])
+        if not (np.all(np.isfinite(p)) and np.all(p > 0)):
+            continue
+        x = np.r_[np.log(p), d, _Z_NEUTRAL[1:]]
+        obj = AugmentedCifer.from_cifer(objective if sg == sign else flipped, _active_mask(("time_delay",)))
+        j = float(obj(jnp.asarray(x)))
+        if math.isfinite(j) and (best is None or j < best.cost_J):
+            best = DelayStart(sg, np.log(p), float(d), j)
+    return best
+
+
+def _flipped_objective(objective: CiferObjective) -> CiferObjective:
+    """The CIFER objective of the negated response (phase turned by 180 deg)."""
+    ph = jnp.mod(objective.phase_deg + 360.0, 360.0) - 180.0
+    return eqx.tree_at(lambda o: o.phase_deg, objective, ph)
+
+
+@dataclass(frozen=True)
 class LinearFit:
     """One frequency-domain refit: paper parameters (sign-normalised), effect parameters, J."""
 
@@ -147,6 +203,28 @@ class LinearFit:
     """``{effect: {param: value}}``."""
     sigma: dict
     """``{effect: {param: 1-sigma}}`` from the Jacobian of J (delta method for logs)."""
+
+
+def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarray, n_freq: int = 48) -> np.ndarray:
+    """Points ``x`` (paper parameters ``x_paper``, the other effect coordinates as in
+    ``z_other``) of a grid over the structural mode's frequency (its whole box) and a few
+    damping pairs (peaks and notches, sharp and broad), best ``J`` first."""
+    f = np.linspace(_Z_LO[3], _Z_HI[3], n_freq)
+    damp = [(0.03, 0.2), (0.05, 0.15), (0.02, 0.3), (0.1, 0.3), (0.2, 0.05), (0.3, 0.1)]
+    rows = []
+    for zp, zz in damp:
+        z = np.tile(np.asarray(z_other, float), (n_freq, 1))
+        z[:, 3], z[:, 4], z[:, 5] = f, math.log(zp), math.log(zz)
+        rows.append(np.concatenate([np.tile(x_paper, (n_freq, 1)), z], axis=1))
+    xs = np.concatenate(rows)
+    j = np.asarray(_batched_cost(objective, jnp.asarray(xs)))
+    j = np.where(np.isfinite(j), j, np.inf)
+    return xs[np.argsort(j)]
+
+
+@eqx.filter_jit
+def _batched_cost(objective: AugmentedCifer, xs):
+    return jax.vmap(objective)(xs)
 
 
 def _active_mask(names: Sequence[str]) -> np.ndarray:
@@ -166,6 +244,7 @@ def fit_linear_candidates(
     iterations: int = 60,
     search_factor: float = 2.0,
     dependence_factor: float = 1.0,
+    effect_seed: np.ndarray | None = None,
 ) -> list[LinearFit]:
     """Refit the paper model plus each tuple of frequency-domain effects on ``J``.
 
@@ -174,6 +253,8 @@ def fit_linear_candidates(
     then a bounded ``least_squares`` polish of the active coordinates.
     ``dependence_factor`` scales the bounds for correlated frequency points
     (``sqrt(m / m_eff)``, as in :func:`jaxgwo._identify._dependence_corrected`).
+    ``effect_seed`` (six effect coordinates ``z``) seeds the first wolf's active effect
+    coordinates beside the nominal paper parameters (a :class:`DelayStart`'s delay).
     """
     from scipy.optimize import least_squares
 
@@ -199,7 +280,16 @@ def fit_linear_candidates(
             z0[:, 3] = np.linspace(_Z_LO[3], _Z_HI[3], n_seed + 2)[1:-1]
         xp = x_c + 0.05 * np.asarray(jax.random.normal(kn, (n_seed, 5), dtype=jnp.float64))
         init = np.clip(np.concatenate([xp, z0], axis=1), lo, hi)
+        if act[3]:
+            # and half the pack at the best points of a scan of J over frequency and damping
+            # shapes at the nominal paper parameters: the pack alone seldom lands on a
+            # lightly damped peak a few per cent wide
+            scan = _mode_scan(AugmentedCifer.from_cifer(objective, act), np.clip(x_nom, lo[:5], hi[:5]), z0[0])
+            k = min(n_seed // 2, scan.shape[0])
+            init[n_seed - k :] = np.clip(scan[:k], lo, hi)
         init[0, :5] = np.clip(x_nom, lo[:5], hi[:5])
+        if effect_seed is not None:
+            init[0, 5:] = np.clip(np.where(act, effect_seed, _Z_NEUTRAL), lo[5:], hi[5:])
         objs.append(AugmentedCifer.from_cifer(objective, act))
         los.append(lo)
         his.append(hi)
@@ -476,12 +566,22 @@ class NonlinearOutputError(eqx.Module):
 
 
 def _nl_box(name: str, u_scale: float) -> tuple[float, float]:
-    """Search box of log(value): the realistic range widened by 2 either way; the
-    saturation limit relative to the largest input (a limit above it never acts)."""
+    """Search box of log(value): the realistic range widened by 2 towards the strong end
+    and far enough towards the other that the nonlinearity no longer acts there, so that
+    every candidate nests the null refit inside its box: a rate limit to ten times the
+    range's top, a backlash width to a hundredth of its bottom, a saturation limit
+    relative to the largest input (to three times it, past the servo's overshoot)."""
     lo, hi = EFFECTS[name].ranges[0]
-    if name == "saturation":
-        return math.log(0.15 * u_scale), math.log(1.1 * u_scale)
-    return math.log(lo / 2.0), math.log(hi * 2.0)
+    if name == "saturation":  # the servo overshoots the input by up to a half
+        return math.log(0.15 * u_scale), math.log(3.0 * u_scale)
+    if name == "backlash":
+        return math.log(lo / 100.0), math.log(hi * 2.0)
+    return math.log(lo / 2.0), math.log(hi * 10.0)
+
+
+def _inactive_end(name: str, lo: float, hi: float) -> float:
+    """The end of the ``log value`` box where the nonlinearity acts least."""
+    return lo if name == "backlash" else hi
 
 
 def _padded(train, delay: float):
@@ -554,6 +654,17 @@ def fit_nonlinear_candidates(
                       jax.random.split(key, len(rows)), init_wolves=jnp.asarray(init), keep_history=False)  # fmt: skip
     best = np.asarray(res.best_position)
     best = np.stack([_polish_nonlinear(o, xb, l, u, n == "null") for o, xb, l, u, n in zip(objs, best, lo, hi, rows)])
+    if include_null:
+        # every candidate nests the null refit (its box reaches where the nonlinearity no
+        # longer acts): where the search stopped above the null's error, polish again from
+        # the null's servo with the nonlinearity switched off and keep the better point
+        e_null = float(_nl_gain_mse(objs[-1], jnp.asarray(best[-1]))[1])
+        for i, n in enumerate(rows[:-1]):
+            if float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1]) > e_null:
+                x0 = np.r_[_inactive_end(n, lo[i, 0], hi[i, 0]), best[-1][1:]]
+                xn = _polish_nonlinear(objs[i], x0, lo[i], hi[i], False)
+                if float(_nl_gain_mse(objs[i], jnp.asarray(xn))[1]) < float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1]):
+                    best[i] = xn
     dt = objs[0].dt
     n_tot = float(np.sum(np.asarray(objs[0].mask)))
     n_eff = max(2.0, n_tot * dt / max(correlation_time_s, dt))
