@@ -102,3 +102,28 @@ def test_a_damaged_file_is_lowered_again(aot_dir):
     _aot.enable(str(aot_dir))  # a new process
     assert np.array_equal(np.asarray(square(jnp.arange(3.0))), [0.0, 1.0, 4.0])
     assert path.read_bytes() != b"not a pickle"
+
+
+def test_a_stored_program_that_does_not_fit_is_lowered_again(aot_dir):
+    # a file that unpickles but holds another program (say, written by a JAX that keys
+    # differently): the call falls back to lowering and overwrites it
+    @_aot.cached_jit
+    @jax.jit
+    def square(x):
+        return x * x
+
+    @_aot.cached_jit
+    @jax.jit
+    def cube(x):
+        return x * x * x
+
+    square(jnp.arange(3.0))
+    cube(jnp.arange(4.0))
+    by_name = {p.name.split("-")[0]: p for p in aot_dir.iterdir()}
+    (sq,) = [p for n, p in by_name.items() if n.endswith("square")]
+    (cu,) = [p for n, p in by_name.items() if n.endswith("cube")]
+    sq.write_bytes(cu.read_bytes())  # shape (4,) program under the (3,) key
+    _aot.enable(str(aot_dir))
+    assert np.array_equal(np.asarray(square(jnp.arange(3.0))), [0.0, 1.0, 4.0])
+    _aot.enable(str(aot_dir))
+    assert np.array_equal(np.asarray(square(jnp.arange(3.0))), [0.0, 1.0, 4.0])

@@ -28,6 +28,7 @@ import hashlib
 import os
 import pickle
 import re
+import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -120,6 +121,7 @@ def _key(name: str, leaves, treedef, static_leaves, static_def, options) -> str 
         *(f"{s}={getattr(jax.config, s, None)!r}" for s in _TRACE_SETTINGS),
         jax.default_backend(),
         repr(options),
+        f"python {sys.version_info[:2]}",
     ]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
@@ -175,6 +177,15 @@ def cached_jit(fn: Callable | None = None, *, name: str | None = None,
         if program is None:
             path = os.path.join(_directory, f"{label}-{key[:40]}.pkl")
             exported = _read(path)
+            if exported is not None:
+                program = jax.jit(exported.call, compiler_options=dict(options) or None)
+                try:
+                    out = program(*leaves)
+                except Exception:  # noqa: BLE001  (a stored program this JAX cannot run)
+                    exported = None
+                else:
+                    _programs[key] = program
+                    return jax.tree.map(_uncommitted, out)
             if exported is None:
 
                 def flat(*xs):
