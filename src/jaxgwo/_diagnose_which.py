@@ -566,22 +566,29 @@ class NonlinearOutputError(eqx.Module):
 
 
 def _nl_box(name: str, u_scale: float) -> tuple[float, float]:
-    """Search box of log(value): the realistic range widened by 2 towards the strong end
-    and far enough towards the other that the nonlinearity no longer acts there, so that
-    every candidate nests the null refit inside its box: a rate limit to ten times the
-    range's top, a backlash width to a hundredth of its bottom, a saturation limit
-    relative to the largest input (to three times it, past the servo's overshoot)."""
+    """Search box of log(value): the realistic range widened by 2 either way (the backlash
+    width by 20 downwards); the saturation limit relative to the largest input (a limit
+    above it seldom acts)."""
     lo, hi = EFFECTS[name].ranges[0]
-    if name == "saturation":  # the servo overshoots the input by up to a half
-        return math.log(0.15 * u_scale), math.log(3.0 * u_scale)
+    if name == "saturation":
+        return math.log(0.15 * u_scale), math.log(1.1 * u_scale)
     if name == "backlash":
-        return math.log(lo / 100.0), math.log(hi * 2.0)
-    return math.log(lo / 2.0), math.log(hi * 10.0)
+        return math.log(lo / 20.0), math.log(hi * 2.0)
+    return math.log(lo / 2.0), math.log(hi * 2.0)
 
 
-def _inactive_end(name: str, lo: float, hi: float) -> float:
-    """The end of the ``log value`` box where the nonlinearity acts least."""
-    return lo if name == "backlash" else hi
+def _inactive_value(name: str, u_scale: float) -> float:
+    """A log(value) where the nonlinearity no longer acts on these records: a rate limit
+    ten times the range's top, a backlash width a hundredth of its bottom, a saturation
+    limit three times the largest input (past the servo's overshoot).  The search box
+    stops short of it so that the pack's grid stays where the effect acts; the nesting
+    re-polish reaches it."""
+    lo, hi = EFFECTS[name].ranges[0]
+    if name == "saturation":
+        return math.log(3.0 * u_scale)
+    if name == "backlash":
+        return math.log(lo / 100.0)
+    return math.log(hi * 10.0)
 
 
 def _padded(train, delay: float):
@@ -661,8 +668,11 @@ def fit_nonlinear_candidates(
         e_null = float(_nl_gain_mse(objs[-1], jnp.asarray(best[-1]))[1])
         for i, n in enumerate(rows[:-1]):
             if float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1]) > e_null:
-                x0 = np.r_[_inactive_end(n, lo[i, 0], hi[i, 0]), best[-1][1:]]
-                xn = _polish_nonlinear(objs[i], x0, lo[i], hi[i], False)
+                v_off = _inactive_value(n, u_scale)
+                x0 = np.r_[v_off, best[-1][1:]]
+                lo_i, hi_i = lo[i].copy(), hi[i].copy()
+                lo_i[0], hi_i[0] = min(lo_i[0], v_off), max(hi_i[0], v_off)
+                xn = _polish_nonlinear(objs[i], x0, lo_i, hi_i, False)
                 if float(_nl_gain_mse(objs[i], jnp.asarray(xn))[1]) < float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1]):
                     best[i] = xn
     dt = objs[0].dt
