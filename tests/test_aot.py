@@ -1,6 +1,8 @@
 """Lowered programs kept across runs (jaxgwo._aot): same bits as the plain jitted calls,
 stored once, reused, and keyed by what the trace depends on."""
 
+import os
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -127,3 +129,21 @@ def test_a_stored_program_that_does_not_fit_is_lowered_again(aot_dir):
     assert np.array_equal(np.asarray(square(jnp.arange(3.0))), [0.0, 1.0, 4.0])
     _aot.enable(str(aot_dir))
     assert np.array_equal(np.asarray(square(jnp.arange(3.0))), [0.0, 1.0, 4.0])
+
+
+def test_programs_of_other_source_versions_are_removed(aot_dir, monkeypatch):
+    @_aot.cached_jit(name="jaxgwo.test.square")
+    @jax.jit
+    def square(x):
+        return x * x
+
+    square(jnp.arange(3.0))
+    square(jnp.arange(4.0))  # same version, other shape: kept
+    first, second = sorted(aot_dir.iterdir())
+    monkeypatch.setattr(_aot, "_fingerprint", lambda: "f" * 64)  # the sources changed
+    os.utime(first, (0, 0))  # stored long ago; the other one recently
+    _aot.enable(str(aot_dir))
+    square(jnp.arange(3.0))
+    names = sorted(p.name for p in aot_dir.iterdir())
+    assert len(names) == 2 and second.name in names
+    assert any(n.startswith("jaxgwo.test.square-ffffffffffff-") for n in names)

@@ -14,7 +14,9 @@ would compile, so the results are bit-identical.  The key is everything the trac
 depends on: the jaxgwo sources, the versions of JAX, jaxlib, equinox and optax, the JAX
 settings that change a trace, the static arguments (configuration fields, functions by
 name) and the shape and dtype of every array argument.  Arguments it cannot key (an
-object without a stable description, a closure) take the plain path.
+object without a stable description, a closure) take the plain path.  A file is about
+0.1-0.2 MB; what another version of the sources stored more than a day ago is deleted
+when this version stores its own, and deleting the folder is always safe.
 
 Without :func:`enable` (the library's default, and the test suite's) every call is the
 plain jitted call.
@@ -30,6 +32,7 @@ import pickle
 import re
 import sys
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -135,7 +138,8 @@ def _read(path: str):
 
 
 def _write(path: str, exported) -> None:
-    # the vjp builder is a closure (not picklable) and is not needed to call the program
+    # Pickled: Exported.serialize() needs flatbuffers, which jaxgwo does not depend on.
+    # The vjp builder is a closure (not picklable) and is not needed to call the program.
     data = pickle.dumps(dataclasses.replace(exported, _get_vjp=None))
     try:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
@@ -143,7 +147,32 @@ def _write(path: str, exported) -> None:
             f.write(data)
         os.replace(tmp, path)  # atomic: a concurrent reader sees all of it or nothing
     except OSError:
-        pass  # a read-only or full cache: this process still runs the program
+        return  # a read-only or full cache: this process still runs the program
+    _remove_stale(path)
+
+
+STALE_AFTER_S = 86400.0
+"""Programs another version of the sources stored are deleted once they are this old."""
+
+
+def _remove_stale(path: str) -> None:
+    """Delete what other versions of the sources (or of JAX) stored for the same function
+    a day or more ago, so that the folder does not grow with every upgrade or edit (two
+    versions in use side by side keep their own)."""
+    directory, name = os.path.split(path)
+    current = name.rsplit("-", 1)[0]  # label-fingerprint
+    label = current.rsplit("-", 1)[0]
+    now = time.time()
+    for other in os.listdir(directory):
+        if not (other.endswith(".pkl") and other.rsplit("-", 2)[0] == label
+                and other.rsplit("-", 1)[0] != current):
+            continue
+        other = os.path.join(directory, other)
+        try:
+            if now - os.path.getmtime(other) > STALE_AFTER_S:
+                os.remove(other)
+        except OSError:
+            pass  # another process removed it first
 
 
 def _uncommitted(a):
@@ -175,7 +204,8 @@ def cached_jit(fn: Callable | None = None, *, name: str | None = None,
             return fn(*args)
         program = _programs.get(key)
         if program is None:
-            path = os.path.join(_directory, f"{label}-{key[:40]}.pkl")
+            # the sources' fingerprint in the name lets a new version clear out the old
+            path = os.path.join(_directory, f"{label}-{_fingerprint()[:12]}-{key[:32]}.pkl")
             exported = _read(path)
             if exported is not None:
                 program = jax.jit(exported.call, compiler_options=dict(options) or None)
