@@ -100,14 +100,14 @@ def test_a_damaged_file_is_lowered_again(aot_dir):
 
     square(jnp.arange(3.0))
     (path,) = aot_dir.iterdir()
-    path.write_bytes(b"not a pickle")
+    path.write_bytes(b"not a stored program")
     _aot.enable(str(aot_dir))  # a new process
     assert np.array_equal(np.asarray(square(jnp.arange(3.0))), [0.0, 1.0, 4.0])
-    assert path.read_bytes() != b"not a pickle"
+    assert path.read_bytes() != b"not a stored program"
 
 
 def test_a_stored_program_that_does_not_fit_is_lowered_again(aot_dir):
-    # a file that unpickles but holds another program (say, written by a JAX that keys
+    # a file that deserializes but holds another program (say, written by a JAX that keys
     # differently): the call falls back to lowering and overwrites it
     @_aot.cached_jit
     @jax.jit

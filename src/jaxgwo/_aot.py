@@ -24,11 +24,9 @@ plain jitted call.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 import os
-import pickle
 import re
 import sys
 import tempfile
@@ -129,18 +127,23 @@ def _key(name: str, leaves, treedef, static_leaves, static_def, options) -> str 
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
+SUFFIX = ".jaxexport"
+"""Stored programs are :meth:`jax.export.Exported.serialize` bytes (JAX's own versioned
+format, no pickle), one file each."""
+
+
 def _read(path: str):
+    from jax import export as jax_export
+
     try:
         with open(path, "rb") as f:
-            return pickle.load(f)
+            return jax_export.deserialize(bytearray(f.read()))
     except Exception:  # noqa: BLE001  (missing, truncated, or from another JAX: lower again)
         return None
 
 
 def _write(path: str, exported) -> None:
-    # Pickled: Exported.serialize() needs flatbuffers, which jaxgwo does not depend on.
-    # The vjp builder is a closure (not picklable) and is not needed to call the program.
-    data = pickle.dumps(dataclasses.replace(exported, _get_vjp=None))
+    data = exported.serialize()
     try:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
@@ -164,7 +167,7 @@ def _remove_stale(path: str) -> None:
     label = current.rsplit("-", 1)[0]
     now = time.time()
     for other in os.listdir(directory):
-        if not (other.endswith(".pkl") and other.rsplit("-", 2)[0] == label
+        if not (other.endswith(SUFFIX) and other.rsplit("-", 2)[0] == label
                 and other.rsplit("-", 1)[0] != current):
             continue
         other = os.path.join(directory, other)
@@ -205,7 +208,7 @@ def cached_jit(fn: Callable | None = None, *, name: str | None = None,
         program = _programs.get(key)
         if program is None:
             # the sources' fingerprint in the name lets a new version clear out the old
-            path = os.path.join(_directory, f"{label}-{_fingerprint()[:12]}-{key[:32]}.pkl")
+            path = os.path.join(_directory, f"{label}-{_fingerprint()[:12]}-{key[:32]}{SUFFIX}")
             exported = _read(path)
             if exported is not None:
                 program = jax.jit(exported.call, compiler_options=dict(options) or None)
