@@ -170,6 +170,36 @@ def _local_scale(zr: np.ndarray, bad: np.ndarray, x: np.ndarray, window: int = 1
     return np.maximum(local, floor)
 
 
+def _at_level_change(x: np.ndarray, bad: np.ndarray, resid: np.ndarray, scale: np.ndarray,
+                     threshold: float) -> np.ndarray:
+    """Samples that continue the signal on one side: the edge of a step, not a spike.
+
+    At the edge of a step input (a doublet, a 3-2-1-1) the leave-one-out cubic misses by
+    up to half the step, so the samples next to it look wild, and filling them would
+    round the steps off.  A spike departs from *both* sides; an edge sample lies on a
+    straight continuation of the three samples on one side (as corrected so far: a
+    filled spike near an edge must not hide the edge): both second
+    differences ``x[i] - 2x[i+s] + x[i+2s]`` and ``x[i+s] - 2x[i+2s] + x[i+3s]`` are
+    within ``max(|resid|/4, (2/3) threshold sqrt(6) sigma)``: a quarter of its own
+    departure, or four standard deviations of a second difference of noise at the
+    default ``threshold`` (so that a noisy edge is not flagged).  A burst of three or
+    fewer wild samples bends one of those differences on both sides, so it is not
+    mistaken for a step.  The price: a spike smaller than about ten noise sigmas, or one
+    within three samples of a step edge, may pass for part of the step.
+    """
+    n = x.size
+    tol = np.maximum(np.abs(resid) / 4.0, (2.0 / 3.0) * threshold * np.sqrt(6.0) * scale)
+    i = np.arange(n)
+    at_edge = np.zeros(n, dtype=bool)
+    for side in (1, -1):
+        js = [i + side * k for k in (1, 2, 3)]
+        ok = (js[-1] >= 0) & (js[-1] < n)
+        p1, p2, p3 = (x[np.clip(j, 0, n - 1)] for j in js)
+        bend = np.maximum(np.abs(x - 2 * p1 + p2), np.abs(p1 - 2 * p2 + p3))
+        at_edge |= ok & (bend <= tol)
+    return at_edge
+
+
 def reject_wild_values(
     x: np.ndarray, *, threshold: float = 6.0, max_iterations: int = 10
 ) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -181,8 +211,12 @@ def reject_wild_values(
     with :math:`\hat\sigma` a running (101-sample) robust scale of residual/g
     (:func:`_local_scale`) and :math:`g_i`
     the residual's noise gain.  A spike also spoils its neighbours' predictions, so each
-    pass accepts only local maxima (within two samples) of the normalised residual, fills
-    them, and repeats.  Non-finite samples are always wild.
+    pass accepts only local maxima (within three samples, the reach of the step test) of
+    the normalised residual, fills them (without the other candidates next to them as
+    spline knots), and repeats.  Non-finite samples are always wild.
+
+    A sample that continues the signal on one side (:func:`_at_level_change`) is the
+    edge of a step input (a doublet, a 3-2-1-1), not a wild value, and is left alone.
 
     A running-median (Hampel) baseline is *not* used: over a sweep it lags any component
     with fewer than about ``2 window`` samples per period, and flags (and would destroy)
@@ -198,8 +232,12 @@ def reject_wild_values(
     idx_all = np.arange(x.size)
     xf = x.copy()
 
-    def fill(xf, bad):
-        good = np.flatnonzero(~bad)
+    def fill(xf, bad, suspect=None):
+        # knots: the good samples, less suspects (candidates within two samples of one
+        # this pass took: the rest of a burst, which as a knot would pull the fill to it)
+        good = np.flatnonzero(~bad & ~suspect) if suspect is not None else np.array([], int)
+        if good.size < 4:
+            good = np.flatnonzero(~bad)
         if good.size < 4:
             raise ValueError("too few good samples to correct wild values")
         from scipy.interpolate import CubicSpline
@@ -219,13 +257,16 @@ def reject_wild_values(
     for _ in range(max_iterations):
         resid, gain = _prediction_residual(xf)
         zr = resid / gain
-        z = np.abs(zr) / _local_scale(zr, bad, xf)
+        scale = _local_scale(zr, bad, xf)
+        z = np.abs(zr) / scale
+        z = np.where(_at_level_change(xf, bad, resid, scale, threshold), 0.0, z)
         cand = (z > threshold) & ~bad
         if not cand.any():
             break
-        new = cand & (z >= scipy.ndimage.maximum_filter1d(z, size=5, mode="nearest"))
+        new = cand & (z >= scipy.ndimage.maximum_filter1d(z, size=7, mode="nearest"))
         bad |= new
-        xf = fill(xf, bad)
+        near_new = scipy.ndimage.maximum_filter1d(new, size=5, mode="constant")
+        xf = fill(xf, bad, cand & ~new & near_new)
     if bad.any():
         # give back samples that were only caught next to a spike: judged against the
         # prediction from the corrected series, their own value is fine
