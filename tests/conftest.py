@@ -9,5 +9,6 @@ import jaxgwo  # noqa: E402,F401  (import after the flags so the package sees th
 
 import os  # noqa: E402
 
-# CLI tests must not write into the user's persistent XLA cache.
-os.environ.setdefault("JAXGWO_CACHE_DIR", "off")
+# CLI tests must not write into the user's persistent XLA cache, nor into a cache the
+# caller set up (CI exports a cold one for its install run): off, whatever was set.
+os.environ["JAXGWO_CACHE_DIR"] = "off"

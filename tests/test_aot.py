@@ -147,3 +147,19 @@ def test_programs_of_other_source_versions_are_removed(aot_dir, monkeypatch):
     names = sorted(p.name for p in aot_dir.iterdir())
     assert len(names) == 2 and second.name in names
     assert any(n.startswith("jaxgwo.test.square-ffffffffffff-") for n in names)
+
+
+def test_transformed_calls_take_the_plain_path(aot_dir):
+    # Regression: with the store enabled (as after the CLI's main() in the same
+    # process), vmapping PaperModel.simulate failed: call_exported has no batching rule
+    from jaxgwo._models import PaperModel
+
+    t = jnp.linspace(0.0, 2.0, 200)
+    u = jnp.sin(7.0 * t)
+    truth = jnp.asarray([-500.0, 0.1, 150.0, 40.0, 0.7])
+    ps = truth * jnp.asarray([[1.0] * 5, [0.8, 1.1, 1.2, 0.9, 1.3]])
+    batched = jax.vmap(lambda p: PaperModel.from_array(p).simulate(t, u))(ps)
+    loop = np.stack([np.asarray(PaperModel.from_array(p).simulate(t, u)) for p in ps])
+    np.testing.assert_allclose(np.asarray(batched), loop, rtol=1e-12, atol=1e-12)
+    grad = jax.grad(lambda k: jnp.sum(PaperModel.from_array(truth.at[0].set(k)).simulate(t, u)))(-500.0)
+    assert np.isfinite(float(grad))

@@ -200,6 +200,10 @@ def cached_jit(fn: Callable | None = None, *, name: str | None = None,
             return fn(*args)
         dynamic, static = eqx.partition(args, eqx.is_array)
         leaves, treedef = jax.tree.flatten(dynamic)
+        if any(isinstance(x, jax.core.Tracer) for x in leaves):
+            # inside a transformation (vmap, grad, an outer jit): a stored program has
+            # no batching or differentiation rules, and the outer trace is not cached
+            return fn(*args)
         static_leaves, static_def = jax.tree.flatten(static)
         options = tuple(compiler_options()) if compiler_options is not None else ()
         key = _key(label, leaves, treedef, static_leaves, static_def, options)
