@@ -170,7 +170,7 @@ def _local_scale(zr: np.ndarray, bad: np.ndarray, x: np.ndarray, window: int = 1
     return np.maximum(local, floor)
 
 
-def _at_level_change(x: np.ndarray, bad: np.ndarray, resid: np.ndarray, scale: np.ndarray,
+def _at_level_change(x: np.ndarray, resid: np.ndarray, scale: np.ndarray,
                      threshold: float) -> np.ndarray:
     """Samples that continue the signal on one side: the edge of a step, not a spike.
 
@@ -235,8 +235,8 @@ def reject_wild_values(
     def fill(xf, bad, suspect=None):
         # knots: the good samples, less suspects (candidates within two samples of one
         # this pass took: the rest of a burst, which as a knot would pull the fill to it)
-        good = np.flatnonzero(~bad & ~suspect) if suspect is not None else np.array([], int)
-        if good.size < 4:
+        good = np.flatnonzero(~bad if suspect is None else ~bad & ~suspect)
+        if good.size < 4 and suspect is not None:
             good = np.flatnonzero(~bad)
         if good.size < 4:
             raise ValueError("too few good samples to correct wild values")
@@ -259,7 +259,7 @@ def reject_wild_values(
         zr = resid / gain
         scale = _local_scale(zr, bad, xf)
         z = np.abs(zr) / scale
-        z = np.where(_at_level_change(xf, bad, resid, scale, threshold), 0.0, z)
+        z = np.where(_at_level_change(xf, resid, scale, threshold), 0.0, z)
         cand = (z > threshold) & ~bad
         if not cand.any():
             break
