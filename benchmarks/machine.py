@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import platform
 
 
@@ -15,3 +16,10 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or "unknown CPU"
+
+
+def pin_cpus(n: int) -> None:
+    """Pin this process to its first ``n`` allowed cores (0: leave it alone).  Call it
+    before JAX is imported: XLA sizes its thread pool from the affinity when it starts."""
+    if n:
+        os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[:n]))

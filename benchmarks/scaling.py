@@ -32,9 +32,11 @@ def _args():
     return ap.parse_args()
 
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import cpu_model, pin_cpus  # noqa: E402
+
 ARGS = _args()
-if ARGS.cpus:
-    os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[: ARGS.cpus]))
+pin_cpus(ARGS.cpus)
 
 import jax  # noqa: E402
 
@@ -44,8 +46,6 @@ import numpy as np  # noqa: E402
 
 import jaxgwo  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from machine import cpu_model  # noqa: E402
 from jaxgwo._atomic import atomic_write_text  # noqa: E402
 from jaxgwo._testfunctions import helicopter_problem  # noqa: E402
 
