@@ -639,11 +639,10 @@ def _dependence_corrected(unc: ParameterUncertainty, response: FrequencyResponse
     m_eff = independent_points(response)
     f = math.sqrt(m / m_eff) if m_eff > 0 else float("inf")
     # host NumPy: a product or quotient rounds as XLA's does, without compiling one
-    fields = (unc.fisher, unc.covariance, unc.cramer_rao, unc.cramer_rao_percent,
-              unc.insensitivity, unc.insensitivity_percent)
-    scales = (1.0 / f**2, f**2, f, f, f, f)
-    fisher, *rest = (np.asarray(a) for a in fields)
-    scaled = (fisher / f**2, *(a * k for a, k in zip(rest, scales[1:])))
+    fisher, cov, *sds = (np.asarray(a) for a in (
+        unc.fisher, unc.covariance, unc.cramer_rao, unc.cramer_rao_percent,
+        unc.insensitivity, unc.insensitivity_percent))
+    scaled = (fisher / f**2, cov * f**2, *(a * f for a in sds))
     return eqx.tree_at(
         lambda u: (u.fisher, u.covariance, u.cramer_rao, u.cramer_rao_percent,
                    u.insensitivity, u.insensitivity_percent),
