@@ -185,6 +185,25 @@ def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
         assert f.train_mse <= null.train_mse * (1 + 1e-9), f.effects
 
 
+def test_nonlinear_refit_moves_the_rotor_term_the_nominal_fit_bent():
+    """A frequency-domain nominal fit absorbs a rate limit's describing function into the
+    rotor term as well as the servo.  Started from such a bent base (rotor tau and M 20 %
+    off, servo 25 % slow), the rate-limit refit must free the rotor term to find the rate
+    and cut the null refit's error (with the rotor held it found neither)."""
+    from jaxgwo._diagnose import _time_pairs
+    from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
+
+    train, _val = _case("rate_limit", seed=3, rate=1.0)
+    tt = _time_pairs(train, "lateral", SETTINGS.identify)
+    true = np.asarray(MODEL.to_array(), float)
+    bent = true * np.array([1.0, 1.2, 0.8, 0.75, 1.0])
+    fit, null = fit_nonlinear_candidates(ModelSpec(bent), tt, ["rate_limit"], key=jax.random.key(0), include_null=True)
+    assert abs(fit.params["rate_limit"]["rate"] - 1.0) < 0.1
+    assert null.train_mse > 2.0 * fit.train_mse
+    refit = fit.spec(ModelSpec(bent)).params
+    np.testing.assert_allclose(refit[1:3], true[1:3], rtol=0.08)  # tau, M back near the truth from 20 % off
+
+
 # -- ranking on fixed blind cases, the report, the CLI -----------------------------------------
 
 

@@ -109,7 +109,10 @@ class DiagnoseSettings:
     (an effect size: without it a mild clipping fits gust-induced error significantly),
     unless the amplitude test of step 2 independently shows the change with amplitude
     that this nonlinearity predicts; then its output-error F-test need only pass at
-    ``alpha_amplitude``.  ``alpha`` and ``z_min_time`` were set on the blind study's
+    ``alpha_amplitude``.  One that cuts that error by ``strong_error_ratio`` or more needs
+    the held-out records only not to contradict it (``z_min``, as a linear candidate):
+    held-out multisteps may reach a limit seldom (set on seed 2's nonlinear cases, whose
+    effect-free refits cut the error by at most 1.004).  ``alpha`` and ``z_min_time`` were set on the blind study's
     seed-0 cases (``benchmarks/blind_diagnosis.py``) and checked on seed 1;
     ``min_error_ratio`` (1.2 there) was lowered to 1.1 on seeds 7 and 8, once every
     nonlinear refit nests the null refit (before, a candidate could fit worse than the
@@ -126,6 +129,7 @@ class DiagnoseSettings:
     z_min: float = -2.0
     z_min_time: float = 1.0
     min_error_ratio: float = 1.1
+    strong_error_ratio: float = 1.5
     alpha_amplitude: float = 0.05
     min_gap: float = -0.5
     nsigma: float = 3.0
@@ -407,12 +411,12 @@ def diagnose(
     J0_sim = sim_J(nom_spec)
 
     def score(effects, params, sigma, spec, cost, J0, n_params, baseline=None, extra_p=None, j_required=True, evidence=None,
-              time_domain=False, alpha=None):
+              time_domain=False, alpha=None, confirm=True):
         pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv]
         ag = float(np.mean([_agreement(e, fm, amp, off_rt) for e in effects]))
         return score_candidate(tuple(effects), params, sigma, pred, val_meas, val_nom, r2_nom, cost, J0, m_eff, n_params,
                                tc, dt, ag, baseline_predicted=baseline, extra_train_p=extra_p, j_required=j_required, evidence=evidence, alpha=settings.alpha if alpha is None else alpha,
-                               z_min=settings.z_min_time if time_domain else settings.z_min,
+                               z_min=settings.z_min_time if time_domain and confirm else settings.z_min,
                                min_gap=0.0 if time_domain else settings.min_gap)  # fmt: skip
 
     specs = {}
@@ -456,8 +460,11 @@ def diagnose(
             if not corroborated and null.train_mse < settings.min_error_ratio * f.train_mse:
                 p_mse = 1.0  # significant perhaps, but too small an effect to trust
             ev = -(math.log(f.train_mse / null.train_mse) + math.log(n_nl) / n_nl)
+            # an effect that cuts the null refit's identification error by a large factor
+            # needs the held-out records only not to contradict it, as a linear one does
+            strong = null.train_mse >= settings.strong_error_ratio * f.train_mse
             sc = score(f.effects, f.params, f.sigma, spec, sim_J(spec), J0_sim, 1, baseline=val_null, extra_p=p_mse,
-                       j_required=False, evidence=ev, time_domain=True, alpha=level)  # fmt: skip
+                       j_required=False, evidence=ev, time_domain=True, alpha=level, confirm=not strong)  # fmt: skip
             det = {"train_mse": f.train_mse, "null_train_mse": null.train_mse, "n_eff_train": n_nl,
                    "train_corr_time_s": tc_tr, "p_val_tc": f_test_p(null.train_mse, f.train_mse, 1, n_train_eff - 4),
                    "p_output_error": f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4),
