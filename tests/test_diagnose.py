@@ -295,3 +295,33 @@ def test_cli_end_to_end_and_bad_input(delay_case, tmp_path, capsys):
     bad = parser.parse_args(["diagnose", str(tr_path), "--channel", "lateral"])
     with pytest.raises(ValueError, match="--validate"):
         bad.func(bad)
+
+
+def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
+    """Why the blind study confuses them: the paper model with an in-loop flapping lag,
+    K / ((s^2 + s/tau)(tau_f s + 1) + M), equals a paper model with other (tau', M', K')
+    times a gyro filter 1/(tau_c s + 1) exactly, whenever the loop is stable (its cubic
+    then has one real pole, the filter's, and a stable pair, the rotor/fuselage mode's).  Matching the cubics up to a scale
+    lambda: tau_c = lambda tau_f and M' = lambda M, with 1/tau' from the s^2 and s terms
+    (a quadratic in lambda).  Checked against both responses as the library computes them."""
+    from scipy.optimize import brentq
+
+    from jaxgwo._effects import paper_model_with_effect
+
+    params = np.array([160.0, 0.2, 100.0, 38.0, 0.5])
+    tau_f = 0.02  # a stable loop (a stiffer rotor or a longer lag destabilises it)
+    k, tau, m = params[:3]
+    # s^2 term: lambda (1 + tau_f/tau) = 1 + tau_c/tau'; s term: lambda/tau = 1/tau' + tau_c M'
+    def residual(lam):
+        inv_tau_p = lam / tau - lam * tau_f * lam * m
+        return lam * (1 + tau_f / tau) - 1 - lam * tau_f * inv_tau_p
+
+    lam = brentq(residual, 0.5, 1.0)
+    tau_c, m_p = lam * tau_f, lam * m
+    tau_p = 1.0 / (lam / tau - tau_c * m_p)
+    assert tau_p > 0 and m_p > 0 and tau_c > 0
+    w = jnp.asarray(np.logspace(-1, 2.5, 200))
+    flap = np.asarray(paper_model_with_effect(jnp.asarray(params), w, "rotor_flapping", tau_f=tau_f))
+    lagged = np.asarray(paper_model_with_effect(jnp.asarray([lam * k, tau_p, m_p, params[3], params[4]]), w, "sensor_lag",
+                                                cutoff_hz=1.0 / (2 * np.pi * tau_c)))  # fmt: skip
+    np.testing.assert_allclose(lagged, flap, rtol=1e-10, atol=0)

@@ -67,9 +67,11 @@ __all__ = ["DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
 
 SEPARATING_EXCITATION = {
     frozenset({"sensor_lag", "rotor_flapping"}): (
-        "sensor_lag and rotor_flapping both add high-frequency phase lag; a sweep extended past the "
-        "rotor/fuselage mode (to 15-20 Hz) at higher amplitude separates the gyro filter's magnitude "
-        "roll-off from the in-loop lag's change of the mode"
+        "no cyclic excitation can: with the paper parameters refitted, a gyro filter and an in-loop "
+        "flapping lag give the same input-output response (each is K over a stable cubic times the "
+        "servo), so they differ only in what the gyro sees of disturbances; read the gyro filter's "
+        "cutoff from the autopilot's parameters, or compare with an unfiltered rate or an independent "
+        "attitude measurement"
     ),
     frozenset({"time_delay", "sensor_lag"}): (
         "a delay keeps the magnitude flat while a gyro filter rolls it off: extend the sweep above the "
