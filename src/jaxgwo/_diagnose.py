@@ -67,7 +67,7 @@ __all__ = ["DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
 
 SEPARATING_EXCITATION = {
     frozenset({"sensor_lag", "rotor_flapping"}): (
-        "no cyclic excitation can: with the paper parameters refitted, a gyro filter and an in-loop "
+        "no cyclic excitation separates them: with the paper parameters refitted, a gyro filter and an in-loop "
         "flapping lag give the same input-output response (each is K over a stable cubic times the "
         "servo), so they differ only in what the gyro sees of disturbances; read the gyro filter's "
         "cutoff from the autopilot's parameters, or compare with an unfiltered rate or an independent "
@@ -521,7 +521,8 @@ def diagnose(
             tip = SEPARATING_EXCITATION.get(frozenset({a.effects[0], b.effects[0]}))
             suggestion = (
                 f"{a.effects[0]} and {b.effects[0]} explain the data almost equally well"
-                + (f"; to separate them: {tip}." if tip else "; fly a wider-band, two-amplitude sweep to separate them.")
+                + (("; " if tip.startswith("no ") else "; to separate them: ") + f"{tip}." if tip
+                   else "; fly a wider-band, two-amplitude sweep to separate them.")
             )
     return Diagnosis(
         channel=channel,
