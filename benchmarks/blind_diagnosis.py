@@ -78,7 +78,7 @@ def _excitation(rng, key, n_train, n_val):
                         "val_amplitude": a_v, "val_unit_s": unit}  # fmt: skip
 
 
-def _acting(label: str, effects, crng, exc_meta: dict, plant, r50: bool):
+def _acting(label: str, effects, crng, exc_meta: dict, plant):
     """Redraw the parameter of an effect that would otherwise seldom act on the records:
     a saturation limit 0.45-0.85 of the high sweep's amplitude, a rate limit 0.3-0.8 of
     the largest servo rate the high sweep asks for (``2 pi f A |servo(j 2 pi f)|`` up to
@@ -93,8 +93,7 @@ def _acting(label: str, effects, crng, exc_meta: dict, plant, r50: bool):
         v = a_hi * float(crng.uniform(0.45, 0.85))
         return eqx.tree_at(lambda e: e.saturation.limit, effects, effects.saturation.limit.at[0].set(v))
     if label == "rate_limit":
-        ws = float(np.asarray(plant.servo_omega)[0]) if r50 else float(np.asarray(plant.lateral)[3])
-        zs = float(np.asarray(plant.servo_zeta)[0]) if r50 else float(np.asarray(plant.lateral)[4])
+        ws, zs = float(plant.servo_omega[0]), float(plant.servo_zeta[0])
         w = 2 * np.pi * np.linspace(0.3, f_hi, 400)
         servo = np.abs(ws**2 / (ws**2 - w**2 + 2j * zs * ws * w))
         v = float(np.max(w * a_hi * servo)) * float(crng.uniform(0.3, 0.8))
@@ -203,7 +202,7 @@ def simulate_cases(n_per_class: int, seed: int, workdir: str, r50_fraction: floa
             hold = None
             draw = draw_paper_plant(k_plant, effects=names, axis="lateral")
         exc_tr, exc_va, exc_meta = _excitation(crng, k_exc, n_train, n_val)
-        draw = eqx.tree_at(lambda d: d.effects, draw, _acting(label, draw.effects, crng, exc_meta, draw.plant, r50))
+        draw = eqx.tree_at(lambda d: d.effects, draw, _acting(label, draw.effects, crng, exc_meta, draw.plant))
         dist = Disturbance(gust_rms=float(crng.uniform(0.02, 0.12)), snr_db=float(crng.uniform(25.0, 40.0)))
         tr = simulate(draw.plant, exc_tr, k_tr, sample_rate_hz=FS, disturbance=dist, effects=draw.effects, hold=hold)
         va = simulate(draw.plant, exc_va, k_va, sample_rate_hz=FS, disturbance=dist, effects=draw.effects, hold=hold)
@@ -222,7 +221,8 @@ def simulate_cases(n_per_class: int, seed: int, workdir: str, r50_fraction: floa
             clean = (tr.to_record(), va.to_record(), np.asarray(tr_clean.rate_clean[:, 0]),
                      np.asarray(va_true.rate_clean[:, 0]))  # fmt: skip
             if r50:
-                # the effect-free R-50 flown with the same commands (the hold loop's included)
+                # the effect-free R-50 flown with the same excitation (its hold loop's share of the
+                # command differs a little: see _oracle)
                 b_tr, b_va = (simulate(draw.plant, exc, k_, sample_rate_hz=FS, hold=hold)
                               for exc, k_ in ((exc_tr, k_tr), (exc_va, k_va)))  # fmt: skip
                 base = (b_tr.to_record(), b_va.to_record(), np.asarray(b_tr.rate_clean[:, 0]),

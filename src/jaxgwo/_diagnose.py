@@ -65,7 +65,7 @@ from ._metrics import r_squared, theil_inequality
 
 __all__ = ["DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
 
-SEPARATING_EXCITATION = {
+SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the data almost equally well; ..."
     frozenset({"sensor_lag", "rotor_flapping"}): (
         "no cyclic excitation separates them: with the paper parameters refitted, a gyro filter and an in-loop "
         "flapping lag give the same input-output response (each is K over a stable cubic times the "
@@ -74,22 +74,22 @@ SEPARATING_EXCITATION = {
         "attitude measurement"
     ),
     frozenset({"time_delay", "sensor_lag"}): (
-        "a delay keeps the magnitude flat while a gyro filter rolls it off: extend the sweep above the "
+        "to separate them: a delay keeps the magnitude flat while a gyro filter rolls it off: extend the sweep above the "
         "filter cutoff (15-20 Hz) with good coherence"
     ),
     frozenset({"time_delay", "rotor_flapping"}): (
-        "extend the sweep beyond the rotor/fuselage mode, where an in-loop lag changes the magnitude "
+        "to separate them: extend the sweep beyond the rotor/fuselage mode, where an in-loop lag changes the magnitude "
         "and a delay does not"
     ),
     frozenset({"rate_limit", "saturation"}): (
-        "fly sweeps at two or three amplitudes: a rate limit bites at high frequency, a saturation at "
+        "to separate them: fly sweeps at two or three amplitudes: a rate limit bites at high frequency, a saturation at "
         "large amplitude at any frequency"
     ),
     frozenset({"rate_limit", "backlash"}): (
-        "a small-amplitude sweep: backlash dominates small inputs, a rate limit large fast ones"
+        "to separate them: a small-amplitude sweep: backlash dominates small inputs, a rate limit large fast ones"
     ),
     frozenset({"backlash", "saturation"}): (
-        "sweeps at two clearly different amplitudes: backlash hurts small inputs, saturation large ones"
+        "to separate them: sweeps at two clearly different amplitudes: backlash hurts small inputs, saturation large ones"
     ),
 }
 
@@ -521,8 +521,7 @@ def diagnose(
             tip = SEPARATING_EXCITATION.get(frozenset({a.effects[0], b.effects[0]}))
             suggestion = (
                 f"{a.effects[0]} and {b.effects[0]} explain the data almost equally well"
-                + (("; " if tip.startswith("no ") else "; to separate them: ") + f"{tip}." if tip
-                   else "; fly a wider-band, two-amplitude sweep to separate them.")
+                + (f"; {tip}." if tip else "; fly a wider-band, two-amplitude sweep to separate them.")
             )
     return Diagnosis(
         channel=channel,

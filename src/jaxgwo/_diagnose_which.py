@@ -153,7 +153,7 @@ class DelayStart:
 def delay_aware_start(response, objective: CiferObjective, sign: float, delays_s: Sequence[float],
                       sk_iterations: int = 5) -> DelayStart | None:
     r"""The best WLS (Levy) start of the paper model on the measured response with each trial
-    delay removed (:math:`H e^{j\omega	au_d}`), scored by ``J`` of the model times the delay.
+    delay removed (:math:`H e^{j\omega\tau_d}`), scored by ``J`` of the model times the delay.
 
     A long delay (tens of ms) turns the phase of a 10 Hz sweep by more than 180 deg: the
     delay-free nominal fit then lands far away, sometimes with the gain's sign flipped,
@@ -426,8 +426,12 @@ def _post_filter(effects) -> tuple[np.ndarray, np.ndarray]:
     return num, den
 
 
+_FLAP_NEGLIGIBLE_S = 1e-4
+"""Below 0.1 ms a flapping lag is negligible and its cubic ill-conditioned: the quadratic is used."""
+
+
 def _rotor_den(tau, m, tau_f):
-    if tau_f > 1e-4:  # below 0.1 ms the cubic is ill-conditioned and the lag negligible
+    if tau_f > _FLAP_NEGLIGIBLE_S:
         return np.array([tau_f, 1.0 + tau_f / tau, 1.0 / tau, m])
     return np.array([1.0, 1.0 / tau, m])
 
@@ -480,15 +484,15 @@ class TimeFit:
     sigma: dict
     gain_scale: float
     train_mse: float
-    servo: dict = field(default_factory=dict)
+    refit: dict = field(default_factory=dict)
     """Refitted ``tau``, ``M``, ``omega_s``, ``zeta_s`` (nonlinear fits only)."""
 
     def spec(self, base: ModelSpec) -> ModelSpec:
         """``base`` with this fit's effects, refitted paper parameters and output gain."""
         p = np.asarray(base.params, float).copy()
         for i, name in ((1, "tau"), (2, "M"), (3, "omega_s"), (4, "zeta_s")):
-            if name in self.servo:
-                p[i] = self.servo[name]
+            if name in self.refit:
+                p[i] = self.refit[name]
         return ModelSpec(p, dict(base.effects) | dict(self.params), self.gain_scale)
 
 
@@ -557,7 +561,7 @@ class NonlinearOutputError(eqx.Module):
                             jnp.where(self.which[2] > 0, v, inf), jnp.where(self.which[1] > 0, v, 0.0))  # fmt: skip
 
     def rotor_den(self, x) -> Float[Array, " d"]:
-        """Denominator of the rotor/fuselage term, :math:`s^2 + s/\tau + M` (eq 15), or with
+        r"""Denominator of the rotor/fuselage term, :math:`s^2 + s/\tau + M` (eq 15), or with
         the flapping lag :math:`(s^2 + s/\tau)(\tau_f s + 1) + M`."""
         inv_tau, m = jnp.exp(-x[3]), jnp.exp(x[4])
         if self.cubic:
@@ -627,7 +631,7 @@ def nonlinear_objectives(base: ModelSpec, train, names: Sequence[str]) -> list[N
     k = float(base.params[0])
     u, y, mask, t, dt = _padded(train, base.effects.get("time_delay", {}).get("delay_s", 0.0))
     tau_f = float(base.effects.get("rotor_flapping", {}).get("tau_f", 0.0))
-    cubic = tau_f > 1e-4  # as _rotor_den: below 0.1 ms the lag is negligible
+    cubic = tau_f > _FLAP_NEGLIGIBLE_S
     out = []
     for n in names:
         which = np.array([n == "rate_limit", n == "backlash", n == "saturation"], float)
@@ -657,9 +661,8 @@ def fit_nonlinear_candidates(
     :func:`_nl_box` and the servo within a factor 2 of the nominal, the rotor term held at
     the nominal; the pack is seeded on an even grid of the value at the nominal paper
     parameters.  The Nelder-Mead polish then frees ``tau`` and ``M`` as well (within a
-    factor 2).  The
-    1-sigma comes from the curvature of the error in ``log value`` with ``n dt / T_c``
-    effective samples.
+    factor 2).  The 1-sigma comes from the curvature of the error in ``log value`` with
+    ``n dt / T_c`` effective samples.
     """
     names = [n for n in names if n in NONLINEAR]
     if not names and not include_null:
