@@ -538,7 +538,8 @@ class NonlinearOutputError(eqx.Module):
     damped servo and a shifted rotor term alike; with the nominal rotor held, a true rate
     limit or backlash cuts the output error by a few per cent where it cuts it by half
     once the rotor may move.  An explicit flapping lag ``tau_f`` of the base model is kept
-    (``cubic``).  Records are padded to one length and ``mask`` drops the padding.  For a
+    (``cubic``), and so are its gyro-side filters (sensor lag, structural mode:
+    ``post_num / post_den``, applied when ``filtered``).  Records are padded to one length and ``mask`` drops the padding.  For a
     prediction :math:`s` and data :math:`y` the best gain is
     :math:`c = \langle s, y\rangle / \langle s, s\rangle`, the error
     :math:`(\lVert y\rVert^2 - c^2 \lVert s\rVert^2)/n`.
@@ -551,8 +552,11 @@ class NonlinearOutputError(eqx.Module):
     gain: Float[Array, ""]
     tau_f: Float[Array, ""]
     which: Float[Array, " 3"]
+    post_num: Float[Array, " p"]
+    post_den: Float[Array, " q"]
     dt: float = eqx.field(static=True)
     cubic: bool = eqx.field(static=True, default=False)
+    filtered: bool = eqx.field(static=True, default=False)
 
     def servo(self, x) -> _ServoParams:
         v = jnp.exp(x[0])
@@ -570,9 +574,10 @@ class NonlinearOutputError(eqx.Module):
 
     def outputs(self, x) -> Float[Array, "rec n"]:
         sp = self.servo(x)
-        den = self.rotor_den(x)
-        sim = lambda u: simulate_transfer_function(jnp.reshape(self.gain, (1,)), den, self.t,  # noqa: E731
-                                                   _nonlinear_servo(sp, u, self.dt))
+        num, den = jnp.reshape(self.gain, (1,)), self.rotor_den(x)
+        if self.filtered:
+            num, den = self.gain * self.post_num, jnp.convolve(den, self.post_den)
+        sim = lambda u: simulate_transfer_function(num, den, self.t, _nonlinear_servo(sp, u, self.dt))  # noqa: E731
         return jax.vmap(sim)(self.u) * self.mask
 
     def gain_and_mse(self, x):
@@ -632,11 +637,13 @@ def nonlinear_objectives(base: ModelSpec, train, names: Sequence[str]) -> list[N
     u, y, mask, t, dt = _padded(train, base.effects.get("time_delay", {}).get("delay_s", 0.0))
     tau_f = float(base.effects.get("rotor_flapping", {}).get("tau_f", 0.0))
     cubic = tau_f > _FLAP_NEGLIGIBLE_S
+    pnum, pden = _post_filter(base.effects)
     out = []
     for n in names:
         which = np.array([n == "rate_limit", n == "backlash", n == "saturation"], float)
         out.append(NonlinearOutputError(jnp.asarray(u), jnp.asarray(y), jnp.asarray(mask), jnp.asarray(t), jnp.asarray(k),
-                                        jnp.asarray(tau_f), jnp.asarray(which), dt, cubic))  # fmt: skip
+                                        jnp.asarray(tau_f), jnp.asarray(which), jnp.asarray(pnum), jnp.asarray(pden), dt,
+                                        cubic, pden.size > 1))  # fmt: skip
     return out
 
 
