@@ -280,6 +280,9 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     doc = json.loads(json.dumps(d.to_json()))
     assert doc["structure"]["effect"] == "structural_mode" and doc["ranking_paper_model"][0]["effect"] == "structural_mode"
     assert "lacks a pole pair near" in d.summary()
+    from jaxgwo._report import diagnosis_report_html
+
+    assert "Ranked on top of the structure finding" in diagnosis_report_html(d, figures=False)
     # switched off, the same data are blamed on a structural mode
     off = diagnose(train, val, "lateral", dataclasses.replace(SETTINGS, structure_zeta_z=float("inf")))
     assert off.structure is None and off.verdict == "structural_mode"

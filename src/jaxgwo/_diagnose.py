@@ -7,7 +7,10 @@ unmodelled effect causes it, and *how far* the held-out gap shrinks once it is a
    bounds, residual whiteness and input-residual correlation on VAL, amplitude dependence
    between low- and high-amplitude TRAIN data, coherence loss.
 3. **Which** (:mod:`jaxgwo._diagnose_which`): every effect of the vocabulary added,
-   refitted and scored on VAL; ``none`` when no candidate beats noise.
+   refitted and scored on VAL; ``none`` when no candidate beats noise.  When the best one
+   is a ``structural_mode`` with real zeros, a pole pair the paper model lacks rather than
+   a resonance, it is a *structure* finding: kept, and the effects ranked again on top of
+   it (``DiagnoseSettings.structure_zeta_z``).
 4. **How far**: the top candidate, and the top two combined, before and after.
 
 :func:`diagnose` returns a :class:`Diagnosis`; :meth:`Diagnosis.to_json` is the stable

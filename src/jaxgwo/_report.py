@@ -254,6 +254,11 @@ def diagnosis_report_html(d, *, source: str = "", command: str | None = None,
     wrows = [[_e(_label(k)), _cell(v)] for k, v in where.items()]
     parts.append(_table(["test", "result"], wrows, left=2))
     parts.append("<h2>Candidate ranking</h2>")
+    st = doc.get("structure")
+    if st:
+        parts.append("<p>Ranked on top of the structure finding, an extra pole pair at "
+                     + _fmt((st.get("params") or {}).get("freq_hz"), ".3g") + " Hz (held-out R² "
+                     + _fmt(st.get("val_r2"), ".4f") + "); each gap closed is of the gap it leaves.</p>")
     crows = []
     for i, c in enumerate(doc.get("ranking", []), start=1):
         params = ", ".join(f"{k} = {_fmt(v, '.4g')} &plusmn; "
