@@ -539,7 +539,8 @@ class NonlinearOutputError(eqx.Module):
     limit or backlash cuts the output error by a few per cent where it cuts it by half
     once the rotor may move.  An explicit flapping lag ``tau_f`` of the base model is kept
     (``cubic``), and so are its gyro-side filters (sensor lag, structural mode:
-    ``post_num / post_den``, applied when ``filtered``).  Records are padded to one length and ``mask`` drops the padding.  For a
+    ``post_num / post_den``, applied when ``filtered``).  Records are padded to one
+    length and ``mask`` drops the padding.  For a
     prediction :math:`s` and data :math:`y` the best gain is
     :math:`c = \langle s, y\rangle / \langle s, s\rangle`, the error
     :math:`(\lVert y\rVert^2 - c^2 \lVert s\rVert^2)/n`.
