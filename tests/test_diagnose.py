@@ -381,3 +381,12 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
     lagged = np.asarray(paper_model_with_effect(jnp.asarray([lam * k, tau_p, m_p, params[3], params[4]]), w, "sensor_lag",
                                                 cutoff_hz=1.0 / (2 * np.pi * tau_c)))  # fmt: skip
     np.testing.assert_allclose(lagged, flap, rtol=1e-10, atol=0)
+
+
+@pytest.mark.parametrize("kw, what", [({"min_error_ratio": 0.9}, "min_error_ratio must be a number >= 1"),
+                                      ({"strong_error_ratio": 0.5}, "strong_error_ratio must be a number >= 1"),
+                                      ({"structure_zeta_z": 0.0}, "structure_zeta_z must be a positive number"),
+                                      ({"wolves": 3}, "wolves")])  # fmt: skip
+def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
+    with pytest.raises(ValueError, match=what):
+        DiagnoseSettings(**kw)
