@@ -223,6 +223,11 @@ class AmplitudeDependence:
     tested: bool = True
     """False when the records could not be compared (too little amplitude contrast or data)."""
 
+    @classmethod
+    def untested(cls, ratio: float, note: str) -> AmplitudeDependence:
+        """The records could not be compared: ``note`` says why."""
+        return cls(False, ratio, 0.0, 0.0, 0.0, note, False)
+
 
 def amplitude_dependence(
     pairs: Sequence[tuple[np.ndarray, np.ndarray]],
@@ -253,7 +258,7 @@ def amplitude_dependence(
             if b - a > 16:
                 pieces.append((u[a:b], y[a:b], float(np.std(u[a:b]))))
     if len(pieces) < 2:
-        return AmplitudeDependence(False, 1.0, 0.0, 0.0, 0.0, "too little data to compare amplitudes", False)
+        return AmplitudeDependence.untested(1.0, "too little data to compare amplitudes")
     amps = np.array([p[2] for p in pieces])
     order = np.argsort(amps)
     half = len(pieces) // 2
@@ -261,10 +266,9 @@ def amplitude_dependence(
     high = [pieces[i][:2] for i in order[half:]]
     ratio = float(np.mean(amps[order[half:]]) / max(np.mean(amps[order[:half]]), 1e-300))
     if ratio < min_ratio:
-        return AmplitudeDependence(
-            False, ratio, 0.0, 0.0, 0.0,
-            f"input amplitudes differ by only x{ratio:.2f}; fly two sweeps of clearly different amplitude to test", False,
-        )  # fmt: skip
+        return AmplitudeDependence.untested(
+            ratio, f"input amplitudes differ by only x{ratio:.2f}; fly two sweeps of clearly different amplitude to test"
+        )
     # Each set holds half-records only: keep the frequencies whose default window (two
     # periods) still gives four 50 %-overlapping averages in the longer piece of both sets
     # (composite_frequency_response's defaults), instead of failing on the lowest ones.
@@ -272,15 +276,15 @@ def amplitude_dependence(
     shortest_set = min(max(u.size for u, _y in s) for s in (low, high)) / sample_rate_hz
     w = w[w >= 2.0 * 2.0 * np.pi * 2.5 / shortest_set * 1.001]
     if w.size < 5:
-        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, "records too short to estimate a response per amplitude", False)
+        return AmplitudeDependence.untested(ratio, "records too short to estimate a response per amplitude")
     try:
         rl = composite_frequency_response(low, sample_rate_hz, w, coherence_threshold=coherence_threshold)
         rh = composite_frequency_response(high, sample_rate_hz, w, coherence_threshold=coherence_threshold)
     except ValueError as err:
-        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, f"could not estimate both responses: {err}", False)
+        return AmplitudeDependence.untested(ratio, f"could not estimate both responses: {err}")
     m = np.asarray(rl.mask) & np.asarray(rh.mask)
     if m.sum() < 5:
-        return AmplitudeDependence(False, ratio, 0.0, 0.0, 0.0, "fewer than 5 frequencies pass in both amplitude sets", False)
+        return AmplitudeDependence.untested(ratio, "fewer than 5 frequencies pass in both amplitude sets")
     Hl, Hh = np.asarray(rl.H)[m], np.asarray(rh.H)[m]
     el, eh = np.asarray(rl.random_error)[m], np.asarray(rh.random_error)[m]
     # plus a floor for the estimator's bias (leakage, windows), which the random-error

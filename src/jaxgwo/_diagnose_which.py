@@ -540,8 +540,8 @@ class NonlinearOutputError(eqx.Module):
     once the rotor may move.  An explicit flapping lag ``tau_f`` of the base model is kept
     (``cubic``), and so are its gyro-side filters (sensor lag, structural mode:
     ``post_num / post_den``, applied when ``filtered``).  Records are padded to one
-    length and ``mask`` drops the padding.  For a
-    prediction :math:`s` and data :math:`y` the best gain is
+    length and ``mask`` drops the padding.  For a prediction :math:`s` and data
+    :math:`y` the best gain is
     :math:`c = \langle s, y\rangle / \langle s, s\rangle`, the error
     :math:`(\lVert y\rVert^2 - c^2 \lVert s\rVert^2)/n`.
     """
@@ -709,13 +709,14 @@ def fit_nonlinear_candidates(
         # the null's paper parameters with the nonlinearity switched off and keep the better point
         e_null = float(_nl_gain_mse(objs[-1], jnp.asarray(best[-1]))[1])
         for i, n in enumerate(rows[:-1]):
-            if float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1]) > e_null:
+            e_i = float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1])
+            if e_i > e_null:
                 v_off = _inactive_value(n, u_scale)
                 x0 = np.r_[v_off, best[-1][1:]]
                 lo_i, hi_i = lo[i].copy(), hi[i].copy()
                 lo_i[0], hi_i[0] = min(lo_i[0], v_off), max(hi_i[0], v_off)
                 xn = _polish_nonlinear(objs[i], x0, lo_i, hi_i, False)
-                if float(_nl_gain_mse(objs[i], jnp.asarray(xn))[1]) < float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1]):
+                if float(_nl_gain_mse(objs[i], jnp.asarray(xn))[1]) < e_i:
                     best[i] = xn
     dt = objs[0].dt
     n_tot = float(np.sum(np.asarray(objs[0].mask)))

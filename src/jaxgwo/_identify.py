@@ -52,10 +52,8 @@ from ._data import CHANNELS, FlightRecord
 from ._metrics import ParameterUncertainty, parameter_uncertainty, r_squared, rms_error, theil_inequality
 from ._models import PaperModel, ParameterMap, QuarticModel, canonicalize_paper_params
 from ._preprocess import PreprocessReport, preprocess
-from ._spectral import FrequencyResponse, composite_frequency_response, zoh_correction
+from ._spectral import FrequencyResponse, _device, composite_frequency_response, zoh_correction
 from ._wls import levy_fit_response
-
-_device = jax.device_put  # a host array to JAX without compiling (see _spectral._device)
 
 METHODS = ("wls", "traditional", "wls-gwo", "wls-igwo", "wls-igwo+polish", "paper")
 
