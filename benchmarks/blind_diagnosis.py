@@ -549,7 +549,21 @@ def main() -> int:
     os.makedirs(args.out, exist_ok=True)
     print(f"workdir {workdir}", flush=True)
     t0 = time.perf_counter()
+    draw = {"seed": args.seed, "cases_per_effect": args.cases_per_effect, "r50_fraction": args.r50_fraction}
+    draw_path = os.path.join(workdir, "draw.json")
     if args.reuse:
+        # the report is labelled with these arguments: they must be the ones the cases were drawn with
+        if os.path.exists(draw_path):
+            with open(draw_path) as f:
+                made = json.load(f)
+            wrong = {k: (made.get(k), v) for k, v in draw.items() if made.get(k) != v}
+            if wrong:
+                ap.error(f"--workdir {workdir} holds cases drawn with "
+                         + ", ".join(f"{k}={a} (asked {b})" for k, (a, b) in wrong.items())
+                         + "; pass the arguments it was simulated with, or simulate afresh.")  # fmt: skip
+        else:
+            print(f"warning: {draw_path} is missing (a workdir from before it was written); "
+                  "cannot check that --seed, --cases-per-effect and --r50-fraction match its cases", flush=True)
         with open(os.path.join(workdir, "key.json")) as f:
             dirs = [os.path.join(workdir, name) for name in json.load(f)]  # only the case names are read here
     else:
@@ -558,6 +572,8 @@ def main() -> int:
         if unknown:
             ap.error(f"unknown class(es) {unknown}; choose from {', '.join(CLASSES)}")
         dirs = simulate_cases(args.cases_per_effect, args.seed, workdir, args.r50_fraction, classes)
+        with open(draw_path, "w") as f:
+            json.dump(draw | {"classes": list(classes)}, f)
         if args.simulate_only:
             return 0
     dirs = dirs[: args.limit]
