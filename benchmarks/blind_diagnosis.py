@@ -364,13 +364,15 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> None:
              "cross_coupling": "cross", "structural_mode": "struct", "rate_limit": "rate", "backlash": "backl",
              "saturation": "sat"}  # fmt: skip
     L = ["# Blind sim-to-real diagnosis study", ""]
+    classes = [c for c in args.classes.split(",") if c]
     if args.reuse:
+        sub = f"--classes {args.classes} " if len(classes) < len(CLASSES) else ""
         L.append(f"`python benchmarks/blind_diagnosis.py --seed {args.seed} --cases-per-effect {args.cases_per_effect} "
-                 f"--r50-fraction {args.r50_fraction:g} --simulate-only --workdir W`, then")  # fmt: skip
+                 f"--r50-fraction {args.r50_fraction:g} {sub}--simulate-only --workdir W`, then")  # fmt: skip
         L.append("")
     L.append(f"`python benchmarks/blind_diagnosis.py {' '.join(sys.argv[1:])}`".replace("  ", " "))
     L.append("")
-    L.append(f"{len(rows)} cases ({args.cases_per_effect} per class x {len(CLASSES)} classes), seed {args.seed}; "
+    L.append(f"{len(rows)} cases ({args.cases_per_effect} per class x {len(classes)} classes), seed {args.seed}; "
              f"{platform.node() or 'host'} ({platform.machine()}, {os.cpu_count()} cores), JAX {jax.__version__}, "
              f"float64, jaxgwo {getattr(jaxgwo, '__version__', '?')}; total wall {elapsed / 60:.1f} min, "
              f"median diagnosis {np.median([r['wall_s'] for r in rows]):.1f} s per case.")  # fmt: skip
@@ -557,6 +559,7 @@ def main() -> int:
             with open(draw_path) as f:
                 made = json.load(f)
             wrong = {k: (made.get(k), v) for k, v in draw.items() if made.get(k) != v}
+            args.classes = ",".join(made.get("classes", CLASSES))  # the report names the classes drawn
             if wrong:
                 ap.error(f"--workdir {workdir} holds cases drawn with "
                          + ", ".join(f"{k}={a} (asked {b})" for k, (a, b) in wrong.items())
