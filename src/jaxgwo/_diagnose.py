@@ -149,8 +149,8 @@ class DiagnoseSettings:
     nsigma: float = 3.0
     structure_zeta_z: float = 1.0
     candidates: tuple[str, ...] = tuple(EFFECTS)
-    nonlinear_wolves: int = 10
-    nonlinear_iterations: int = 10
+    nonlinear_wolves: int = 12
+    nonlinear_iterations: int = 15
     seed: int = 0
 
     def __post_init__(self):
