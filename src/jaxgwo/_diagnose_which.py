@@ -664,15 +664,18 @@ def fit_nonlinear_candidates(
     (and an output gain, in closed form) to the identification records ``(t, u, u_off, y)``
     by mean squared output error.
 
-    All candidates (and, with ``include_null``, the null refit without a nonlinearity,
-    returned last with ``effects == ()``) go through one :func:`jaxgwo._gwo.run_batch`
-    call of the project's IGWO on :class:`NonlinearOutputError`, as a profile: ``log value``
-    held at each of ``profile_points`` even points of :func:`_nl_box`, one pack per point
-    searching the servo within a factor 2 of the nominal (damping down to 0.25), the rotor
-    term held at the null refit's (the null is polished first, from the nominal); each pack
-    starts on a ladder of servo damping across its box.  The two lowest local minima of
-    each effect's profile are polished by Nelder-Mead with the value, the servo, ``tau``
-    and ``M`` free (within a factor 2) and the better kept.  The 1-sigma comes from the
+    With the project's IGWO on :class:`NonlinearOutputError`: the null refit (no
+    nonlinearity; returned last, ``effects == ()``, with ``include_null``) first, one pack
+    searching the servo at the nominal rotor term, then a Nelder-Mead polish with servo and
+    rotor free and an L-BFGS-B finish.  Then every candidate as a profile, all rows in one
+    :func:`jaxgwo._gwo.run_batch` call: ``log value`` held at each of ``profile_points``
+    even points of :func:`_nl_box`, one pack per point searching the servo within a factor
+    2 of the nominal (damping down to 0.25) with the rotor term held at the null refit's,
+    each pack started on a ladder of servo damping across its box.  The profile's lowest
+    local minimum (and the second where within 5 %) is polished with the value, the servo,
+    ``tau`` and ``M`` free (within a factor 2), the better finished by L-BFGS-B.  The
+    null is polished again wherever a candidate's servo and rotor fit better without
+    the nonlinearity, and every candidate nests the null.  The 1-sigma comes from the
     curvature of the error in ``log value`` with ``n dt / T_c`` effective samples.
     """
     names = [n for n in names if n in NONLINEAR]
@@ -699,8 +702,7 @@ def fit_nonlinear_candidates(
     # poor one), so a pack first searches the servo with the rotor held at the nominal and the
     # polish starts from the better of its best wolf and the nominal.
     (null_obj,) = nonlinear_objectives(base, train, ["null"])
-    ladder = np.column_stack([paper[0] + np.log([1.0, 0.8, 1.25])[np.arange(wolves) % 3],
-                              np.linspace(p_lo[1], p_hi[1], wolves)])  # fmt: skip
+    ladder = _servo_ladder(paper[0], p_lo[1], p_hi[1], wolves)
     k_null, key = jax.random.split(key)
     n_lo, n_hi = np.r_[0.0, p_lo[:2], paper[2:]], np.r_[1e-9, p_hi[:2], paper[2:] + 1e-9]
     init = np.clip(np.column_stack([np.zeros(wolves), ladder, np.tile(paper[2:], (wolves, 1))]), n_lo, n_hi)
@@ -716,19 +718,15 @@ def fit_nonlinear_candidates(
     # flat in the value, so a pack searching value and servo together seldom reaches the
     # nonlinearity's basin.  Each effect's value is instead held at ``profile_points`` even
     # points of its box and one pack per point searches the servo, the rotor term held at the
-    # null refit's, all rows in one batch; the best point of each effect is then polished
-    # with everything free.  Each pack starts on a ladder of servo damping across its box,
-    # the frequency alternating around the null refit's.
-    # The null has a row of its own (its polish may stop in the servo's local minimum that
-    # the nominal's absorbed damping put it in): it is polished again from that row's pack.
+    # null refit's, all rows in one batch.  The null has a row of its own (a start for
+    # polishing it again below).
     grid = np.linspace(0.0, 1.0, profile_points)
     prow = np.r_[np.repeat(np.arange(len(names)), profile_points), len(names)]
     vals = np.r_[np.concatenate([bx[0] + (bx[1] - bx[0]) * grid for bx in boxes[: len(names)]] + [np.zeros(0)]), 0.0]
     objs_p = objs[: len(names)] + [null_obj]
     plo = np.column_stack([vals, np.tile(np.r_[p_lo[:2], x_null[3:]], (vals.size, 1))])
     phi = np.column_stack([vals + 1e-9, np.tile(np.r_[p_hi[:2], x_null[3:] + 1e-9], (vals.size, 1))])
-    ladder = np.column_stack([x_null[1] + np.log([1.0, 0.8, 1.25])[np.arange(wolves) % 3],
-                              np.linspace(p_lo[1], p_hi[1], wolves)])  # fmt: skip
+    ladder = _servo_ladder(x_null[1], p_lo[1], p_hi[1], wolves)
     init = np.stack([np.column_stack([np.full(wolves, a[0]), ladder, np.tile(a[3:], (wolves, 1))]) for a in plo])
     init = np.clip(init, plo[:, None, :], phi[:, None, :])
     res = G.run_batch(G.igwo(wolves, iterations), G.stack_objectives([objs_p[i] for i in prow]), jnp.asarray(plo),
@@ -745,8 +743,8 @@ def fit_nonlinear_candidates(
         minima = [j for j in np.argsort(f_i) if f_i[j] <= min(ext[j], ext[j + 2])][:2]
         minima = [j for j in minima if f_i[j] <= 1.05 * f_i[minima[0]]]
         pol = [_polish_nonlinear(objs[i], x_i[j], lo[i], hi[i], False) for j in minima]
-        x_i = min(pol, key=lambda x: float(_nl_gain_mse(objs[i], jnp.asarray(x))[1]))
-        best.append(_polish_nonlinear(objs[i], x_i, lo[i], hi[i], False, "L-BFGS-B"))
+        x_best = min(pol, key=lambda x: float(_nl_gain_mse(objs[i], jnp.asarray(x))[1]))
+        best.append(_polish_nonlinear(objs[i], x_best, lo[i], hi[i], False, "L-BFGS-B"))
     # The null polished from the nominal may stop in a servo minimum the nominal's absorbed
     # damping put it in, and a candidate would then beat it where its nonlinearity does not
     # act.  The null is polished again from its own row's pack, or from a candidate's servo
@@ -795,6 +793,13 @@ def fit_nonlinear_candidates(
         pname = _NL_PARAM[n]
         out.append(TimeFit((n,), {n: {pname: v}}, {n: {pname: v * sig_log}}, c, e0, refit))
     return out
+
+
+def _servo_ladder(log_omega: float, log_zeta_lo: float, log_zeta_hi: float, wolves: int) -> np.ndarray:
+    """A pack's servo starts ``(log omega_s, log zeta_s)``: the damping on an even ladder
+    across its box, the frequency alternating around ``log_omega`` (x1, x0.8, x1.25)."""
+    return np.column_stack([log_omega + np.log([1.0, 0.8, 1.25])[np.arange(wolves) % 3],
+                            np.linspace(log_zeta_lo, log_zeta_hi, wolves)])  # fmt: skip
 
 
 def _polish_nonlinear(obj: NonlinearOutputError, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, null: bool,
