@@ -684,7 +684,8 @@ def fit_nonlinear_candidates(
     key = jax.random.key(0) if key is None else key
     u_scale = max(float(np.max(np.abs(u))) for _t, u, _o, _y in train)
     rows = names + (["null"] if include_null else [])
-    objs = nonlinear_objectives(base, train, rows)
+    objs = nonlinear_objectives(base, train, names + ["null"])  # the null last, whether returned or not
+    null_obj = objs[-1]
     _k, tau, m, ws, zs = (abs(float(v)) for v in base.params)
     zc = min(max(zs, 0.1), 1.5)
     paper = np.log([ws, zs, tau, m])
@@ -692,16 +693,16 @@ def fit_nonlinear_candidates(
     # box reaches down to 0.25 whatever the nominal
     p_lo = np.log([ws / 2.0, min(zc / 2.0, 0.25), tau / 2.0, m / 2.0])
     p_hi = np.log([ws * 2.0, max(zc * 2.0, 1.5), tau * 2.0, m * 2.0])
-    boxes = [_nl_box(n, u_scale) if n != "null" else (0.0, 1e-9) for n in rows]
+    boxes = [_nl_box(n, u_scale) for n in names]
     lo = np.array([np.r_[bx[0], p_lo] for bx in boxes])
     hi = np.array([np.r_[bx[1], p_hi] for bx in boxes])
+    null_lo, null_hi = np.r_[0.0, p_lo], np.r_[1e-9, p_hi]  # the null's value does nothing
     # The null refit first: servo and rotor polished from the nominal without a nonlinearity.
     # The frequency-domain nominal is a poor output-error model (its rotor term alone can
     # leave twice the error), and the nonlinearities' basins lie near the null's rotor term.
     # The servo error surface has several basins (the nominal's absorbed damping sits in a
     # poor one), so a pack first searches the servo with the rotor held at the nominal and the
     # polish starts from the better of its best wolf and the nominal.
-    (null_obj,) = nonlinear_objectives(base, train, ["null"])
     ladder = _servo_ladder(paper[0], p_lo[1], p_hi[1], wolves)
     k_null, key = jax.random.split(key)
     n_lo, n_hi = np.r_[0.0, p_lo[:2], paper[2:]], np.r_[1e-9, p_hi[:2], paper[2:] + 1e-9]
@@ -709,10 +710,10 @@ def fit_nonlinear_candidates(
     r0 = G.run(G.igwo(wolves, iterations), null_obj, jnp.asarray(n_lo), jnp.asarray(n_hi), k_null,
                init_wolves=jnp.asarray(init), keep_history=False)  # fmt: skip
     x0 = np.r_[0.0, paper]
-    if float(r0.best_fitness) < float(_nl_gain_mse(null_obj, jnp.asarray(x0))[1]):
+    if float(r0.best_fitness) < _nl_mse(null_obj, x0):
         x0 = np.asarray(r0.best_position)
-    x_null = _polish_nonlinear(null_obj, x0, np.r_[0.0, p_lo], np.r_[1e-9, p_hi], True)
-    x_null = _polish_nonlinear(null_obj, x_null, np.r_[0.0, p_lo], np.r_[1e-9, p_hi], True, "L-BFGS-B")
+    x_null = _polish_nonlinear(null_obj, x0, null_lo, null_hi, True)
+    x_null = _polish_nonlinear(null_obj, x_null, null_lo, null_hi, True, "L-BFGS-B")
     # Profile search: the nominal fit has absorbed the nonlinearity into its servo (a rate
     # limit into more damping: 0.67 -> 1.35 seen), and at a servo without it the error is
     # flat in the value, so a pack searching value and servo together seldom reaches the
@@ -722,14 +723,13 @@ def fit_nonlinear_candidates(
     # polishing it again below).
     grid = np.linspace(0.0, 1.0, profile_points)
     prow = np.r_[np.repeat(np.arange(len(names)), profile_points), len(names)]
-    vals = np.r_[np.concatenate([bx[0] + (bx[1] - bx[0]) * grid for bx in boxes[: len(names)]] + [np.zeros(0)]), 0.0]
-    objs_p = objs[: len(names)] + [null_obj]
+    vals = np.r_[np.concatenate([bx[0] + (bx[1] - bx[0]) * grid for bx in boxes] + [np.zeros(0)]), 0.0]
     plo = np.column_stack([vals, np.tile(np.r_[p_lo[:2], x_null[3:]], (vals.size, 1))])
     phi = np.column_stack([vals + 1e-9, np.tile(np.r_[p_hi[:2], x_null[3:] + 1e-9], (vals.size, 1))])
     ladder = _servo_ladder(x_null[1], p_lo[1], p_hi[1], wolves)
     init = np.stack([np.column_stack([np.full(wolves, a[0]), ladder, np.tile(a[3:], (wolves, 1))]) for a in plo])
     init = np.clip(init, plo[:, None, :], phi[:, None, :])
-    res = G.run_batch(G.igwo(wolves, iterations), G.stack_objectives([objs_p[i] for i in prow]), jnp.asarray(plo),
+    res = G.run_batch(G.igwo(wolves, iterations), G.stack_objectives([objs[i] for i in prow]), jnp.asarray(plo),
                       jnp.asarray(phi), jax.random.split(key, prow.size), init_wolves=jnp.asarray(init),
                       keep_history=False)  # fmt: skip
     fit_p, pos_p = np.asarray(res.best_fitness), np.asarray(res.best_position)
@@ -743,19 +743,19 @@ def fit_nonlinear_candidates(
         minima = [j for j in np.argsort(f_i) if f_i[j] <= min(ext[j], ext[j + 2])][:2]
         minima = [j for j in minima if f_i[j] <= 1.05 * f_i[minima[0]]]
         pol = [_polish_nonlinear(objs[i], x_i[j], lo[i], hi[i], False) for j in minima]
-        x_best = min(pol, key=lambda x: float(_nl_gain_mse(objs[i], jnp.asarray(x))[1]))
+        x_best = min(pol, key=lambda x: _nl_mse(objs[i], x))
         best.append(_polish_nonlinear(objs[i], x_best, lo[i], hi[i], False, "L-BFGS-B"))
     # The null polished from the nominal may stop in a servo minimum the nominal's absorbed
     # damping put it in, and a candidate would then beat it where its nonlinearity does not
     # act.  The null is polished again from its own row's pack, or from a candidate's servo
     # and rotor, wherever those fit better without the nonlinearity.
-    e_null = float(_nl_gain_mse(null_obj, jnp.asarray(x_null))[1])
+    e_null = _nl_mse(null_obj, x_null)
     starts = [pos_p[-1]] + [np.r_[0.0, x[1:]] for x in best]
-    e_starts = [float(_nl_gain_mse(null_obj, jnp.asarray(x))[1]) for x in starts]
+    e_starts = [_nl_mse(null_obj, x) for x in starts]
     j = int(np.argmin(e_starts))
     if e_starts[j] < e_null:
-        x2 = _polish_nonlinear(null_obj, starts[j], np.r_[0.0, p_lo], np.r_[1e-9, p_hi], True)
-        e2 = float(_nl_gain_mse(null_obj, jnp.asarray(x2))[1])
+        x2 = _polish_nonlinear(null_obj, starts[j], null_lo, null_hi, True)
+        e2 = _nl_mse(null_obj, x2)
         if e2 < e_null:
             x_null, e_null = x2, e2
     best = np.stack(best + ([x_null] if include_null else []))
@@ -763,14 +763,14 @@ def fit_nonlinear_candidates(
     # longer acts): where the search stopped above the null's error, polish again from
     # the null's paper parameters with the nonlinearity switched off and keep the better point
     for i, n in enumerate(names):
-        e_i = float(_nl_gain_mse(objs[i], jnp.asarray(best[i]))[1])
+        e_i = _nl_mse(objs[i], best[i])
         if e_i > e_null:
             v_off = _inactive_value(n, u_scale)
             x0 = np.r_[v_off, x_null[1:]]
             lo_i, hi_i = lo[i].copy(), hi[i].copy()
             lo_i[0], hi_i[0] = min(lo_i[0], v_off), max(hi_i[0], v_off)
             xn = _polish_nonlinear(objs[i], x0, lo_i, hi_i, False)
-            if float(_nl_gain_mse(objs[i], jnp.asarray(xn))[1]) < e_i:
+            if _nl_mse(objs[i], xn) < e_i:
                 best[i] = xn
     dt = objs[0].dt
     n_tot = float(np.sum(np.asarray(objs[0].mask)))
@@ -785,8 +785,8 @@ def fit_nonlinear_candidates(
         if n == "null":
             out.append(TimeFit((), {}, {}, c, e0, refit))
             continue
-        ep = float(_nl_gain_mse(obj, jnp.asarray(xb + step))[1])
-        em = float(_nl_gain_mse(obj, jnp.asarray(xb - step))[1])
+        ep = _nl_mse(obj, xb + step)
+        em = _nl_mse(obj, xb - step)
         curv = (ep - 2 * e0 + em) / h**2
         sig_log = math.sqrt(2.0 * e0 / n_eff / curv) if curv > 0 else float("inf")
         v = math.exp(xb[0])
@@ -818,7 +818,7 @@ def _polish_nonlinear(obj: NonlinearOutputError, x0: np.ndarray, lo: np.ndarray,
     free = np.arange(1, x0.size) if null else np.arange(x0.size)
     x0 = np.asarray(x0, float).copy()
     x0[free] = np.clip(x0[free], lo[free], hi[free])  # a nominal outside the refit's box starts on its edge
-    f0 = float(_nl_gain_mse(obj, jnp.asarray(x0))[1])
+    f0 = _nl_mse(obj, x0)
     if not (math.isfinite(f0) and f0 > 0):
         return x0
     bounds = list(zip(lo[free], hi[free]))
@@ -840,7 +840,7 @@ def _polish_nonlinear(obj: NonlinearOutputError, x0: np.ndarray, lo: np.ndarray,
         def f(v):
             x = x0.copy()
             x[free] = v
-            return float(_nl_gain_mse(obj, jnp.asarray(x))[1])
+            return _nl_mse(obj, x)
 
         sol = minimize(f, x0[free], method="Nelder-Mead", bounds=bounds,
                        options={"xatol": 1e-4, "fatol": 1e-14, "maxfev": 50 * free.size})  # fmt: skip
@@ -858,6 +858,11 @@ def _nl_value_and_grad(obj: NonlinearOutputError, x):
     case_044's 5700 samples)."""
     f = lambda v: obj.gain_and_mse(v)[1]  # noqa: E731
     return f(x), jax.jacfwd(f)(x)
+
+
+def _nl_mse(obj: NonlinearOutputError, x) -> float:
+    """The identification output error of ``obj`` at ``x``, a Python float."""
+    return float(_nl_gain_mse(obj, jnp.asarray(x))[1])
 
 
 @eqx.filter_jit
