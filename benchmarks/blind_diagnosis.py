@@ -364,7 +364,7 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> None:
              "cross_coupling": "cross", "structural_mode": "struct", "rate_limit": "rate", "backlash": "backl",
              "saturation": "sat"}  # fmt: skip
     L = ["# Blind sim-to-real diagnosis study", ""]
-    classes = [c for c in args.classes.split(",") if c]
+    classes = args.classes.split(",")
     if args.reuse:
         sub = f"--classes {args.classes} " if len(classes) < len(CLASSES) else ""
         L.append(f"`python benchmarks/blind_diagnosis.py --seed {args.seed} --cases-per-effect {args.cases_per_effect} "
@@ -546,6 +546,13 @@ def main() -> int:
                                       polish_steps=40, w_max=120.0),
             wolves=12, iterations=30,
         )  # fmt: skip
+    # one normal form of --classes, read by phase 1 and by the report alike
+    args.classes = ",".join(c.strip() for c in args.classes.split(",") if c.strip())
+    unknown = [c for c in args.classes.split(",") if c not in CLASSES]
+    if not args.classes:
+        ap.error(f"--classes names no class; choose from {', '.join(CLASSES)}")
+    if unknown:
+        ap.error(f"unknown class(es) {unknown}; choose from {', '.join(CLASSES)}")
     workdir = args.workdir or tempfile.mkdtemp(prefix="blind_diagnosis_")
     os.makedirs(workdir, exist_ok=True)
     os.makedirs(args.out, exist_ok=True)
@@ -570,10 +577,7 @@ def main() -> int:
         with open(os.path.join(workdir, "key.json")) as f:
             dirs = [os.path.join(workdir, name) for name in json.load(f)]  # only the case names are read here
     else:
-        classes = tuple(c.strip() for c in args.classes.split(",") if c.strip())
-        unknown = [c for c in classes if c not in CLASSES]
-        if unknown:
-            ap.error(f"unknown class(es) {unknown}; choose from {', '.join(CLASSES)}")
+        classes = tuple(args.classes.split(","))
         dirs = simulate_cases(args.cases_per_effect, args.seed, workdir, args.r50_fraction, classes)
         with open(draw_path, "w") as f:
             json.dump(draw | {"classes": list(classes)}, f)
