@@ -96,7 +96,7 @@ class _Diag(FakeDiagnosis):
 def test_diagnose_exports_nominal_model_and_reports(tmp_path, monkeypatch, files, capsys):
     import jaxgwo._diagnose as D
 
-    monkeypatch.setattr(D, "diagnose", lambda train, val, channel, settings: _Diag())
+    monkeypatch.setattr(D, "diagnose", lambda train, val, channel, settings, progress=None: _Diag())
     monkeypatch.setattr(D, "plot_diagnosis", _fake_plot)
     model_path, report = tmp_path / "nominal.json", tmp_path / "d.html"
     rc = main(["diagnose", files[0], "--validate", files[1], "--channel", "lateral",

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jaxgwo._data import make_record, save_record
-from jaxgwo._diagnose import DiagnoseSettings, diagnose
+from jaxgwo._diagnose import DIAGNOSE_STAGES, DiagnoseSettings, diagnose
 from jaxgwo._diagnose_where import amplitude_dependence, bands_from_flags, frequency_mismatch, residual_tests
 from jaxgwo._effects import EffectSet, time_delay_response
 from jaxgwo._identify import IdentifySettings
@@ -262,11 +262,22 @@ def test_nonlinear_objective_keeps_the_base_models_gyro_filters():
 @pytest.fixture(scope="module")
 def delay_case():
     train, val = _case("time_delay", seed=1, delay_s=0.03)
-    return train, val, diagnose(train, val, "lateral", SETTINGS)
+    stages: list[tuple[int, str]] = []
+    d = diagnose(train, val, "lateral", SETTINGS, progress=lambda done, note: stages.append((done, note)))
+    return train, val, d, stages
+
+
+def _check_stages(stages, structure: bool):
+    """The progress calls of one diagnosis: in order, ending done, the re-ranking stage only with a structure finding."""
+    done = [i for i, _note in stages]
+    assert done[0] == 0 and done == sorted(done)
+    assert stages[-1] == (len(DIAGNOSE_STAGES), "done")
+    assert set(done) == set(range(len(DIAGNOSE_STAGES) + 1)) - (set() if structure else {3})
+    assert any("time domain" in note for _i, note in stages)  # the nonlinear refits announce themselves
 
 
 def test_time_delay_case_is_found_and_estimated(delay_case):
-    _, _, d = delay_case
+    _, _, d, stages = delay_case
     assert d.verdict == "time_delay"
     top = d.ranking[0]
     assert abs(top.params["time_delay"]["delay_s"] - 0.03) < 0.003  # the issue's 3 ms target
@@ -275,6 +286,7 @@ def test_time_delay_case_is_found_and_estimated(delay_case):
     assert top.cost_J < 0.1 * d.nominal_cost_J
     assert d.mismatch.equivalent_delay_s > 0.0  # the nominal model leaves residual phase lag
     assert d.combined is not None and d.combined.effects[0] == "time_delay"
+    _check_stages(stages, structure=False)
 
 
 def test_no_effect_case_answers_none():
@@ -290,8 +302,10 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     ranking finds a structural_mode with zero damping far above a resonance's; that is
     reported as structure, kept, and no effect beats noise on top of it."""
     train, val = _case("structural_mode", seed=4, freq_hz=9.0, zeta_p=0.15, zeta_z=1.5)
-    d = diagnose(train, val, "lateral", SETTINGS)
+    stages: list[tuple[int, str]] = []
+    d = diagnose(train, val, "lateral", SETTINGS, progress=lambda done, note: stages.append((done, note)))
     assert d.structure is not None
+    _check_stages(stages, structure=True)
     sm = d.structure.params["structural_mode"]
     assert abs(sm["freq_hz"] - 9.0) < 0.15 * 9.0 and sm["zeta_z"] > SETTINGS.structure_zeta_z
     assert d.structure.val_r2 > d.nominal_r2 and d.paper_ranking[0].effects == ("structural_mode",)
@@ -327,7 +341,7 @@ def test_f_test_against_scipy():
 
 
 def test_json_report_schema(delay_case):
-    _, _, d = delay_case
+    _, _, d, _stages = delay_case
     doc = json.loads(json.dumps(d.to_json()))
     assert {"channel", "nominal", "where", "ranking", "verdict", "combined_top2"} <= set(doc)
     assert set(doc["nominal"]) == {"params", "cost_J", "val_r2", "val_tic"}
@@ -349,7 +363,7 @@ def test_json_report_schema(delay_case):
 def test_cli_end_to_end_and_bad_input(delay_case, tmp_path, capsys):
     from jaxgwo.cli import _diagnose as cli
 
-    train, val, _ = delay_case
+    train, val, _d, _stages = delay_case
     tr_path, va_path = tmp_path / "train.csv", tmp_path / "val.csv"
     save_record(train[0], tr_path)
     # the validation record without its off-axis cyclic: cross_coupling must be skipped with a reason

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import jax
@@ -66,7 +66,7 @@ from ._identify import (
 )
 from ._metrics import r_squared, theil_inequality
 
-__all__ = ["DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
+__all__ = ["DIAGNOSE_STAGES", "DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
 
 SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the data almost equally well; ..."
     frozenset({"sensor_lag", "rotor_flapping"}): (
@@ -382,17 +382,30 @@ def _time_pairs(records: Sequence[FlightRecord], channel: str, settings: Identif
     return out
 
 
+#: the stages :func:`diagnose` reports to its ``progress`` callback, in order (the fourth
+#: runs only when a structure finding asks for the effects to be ranked again)
+DIAGNOSE_STAGES = ("nominal", "where", "which", "which, on top of the extra mode", "how far")
+
+
 def diagnose(
     train: Sequence[FlightRecord],
     validation: Sequence[FlightRecord],
     channel: str,
     settings: DiagnoseSettings = DiagnoseSettings(),
+    progress: Callable[[int, str], None] | None = None,
 ) -> Diagnosis:
     """Diagnose the gap between the paper model and the records of ``channel``.
 
     ``train`` identifies (nominal and candidates); ``validation`` is held out and only
     scored.  Raises ``ValueError`` for missing validation records or columns.
+    ``progress(done, note)``, when given, is called between stages (``done`` of
+    :data:`DIAGNOSE_STAGES`), never from compiled code; it does not change the result.
     """
+
+    def tick(done: int, note: str) -> None:
+        if progress is not None:
+            progress(done, note)
+
     if not validation:
         raise ValueError("diagnose needs held-out validation records (--validate VAL): the ranking is scored on them.")
     if not train:
@@ -405,6 +418,7 @@ def diagnose(
         )
     ids = settings.identify
     key = jax.random.key(settings.seed)
+    tick(0, "nominal: the paper model on TRAIN")
     nominal = identify_channels({channel: list(train)}, ids, validation=list(validation))[channel]
     prep = _prepare(list(train), channel, ids)
     model = nominal.model
@@ -415,6 +429,7 @@ def diagnose(
     dt = 1.0 / float(train[0].sample_rate)
 
     # -- where
+    tick(1, "where: bands, residual tests, amplitude dependence")
     fm = frequency_mismatch(resp, np.asarray(model.frequency_response(resp.w)), nsigma=settings.nsigma)
     tv = _time_pairs(validation, channel, ids)
     tt = _time_pairs(train, channel, ids)
@@ -464,10 +479,11 @@ def diagnose(
                                z_min=settings.z_min_time if time_domain and confirm else settings.z_min,
                                min_gap=0.0 if time_domain else settings.min_gap)  # fmt: skip
 
-    def rank(base: _Base, names: Sequence[str], k_lin, k_nl):
+    def rank(base: _Base, names: Sequence[str], k_lin, k_nl, stage: int, what: str):
         """Every candidate of ``names`` added to ``base``, refitted and scored against it.
         Returns the scores, the fitted model of each candidate (keyed by its own effects)
         and its frequency-domain fit and start (keyed by all the effects fitted)."""
+        tick(stage, f"{what}: linear candidates (frequency domain)")
         scored: list[CandidateScore] = []
         specs: dict = {}
         obj0, x0, seed0, _sv = base.start
@@ -511,6 +527,7 @@ def diagnose(
                                 extra_p=p_cc, j_required=False, evidence=ev, time_domain=True))  # fmt: skip
         nl_names = [c for c in names if c in NONLINEAR]
         if nl_names:
+            tick(stage, f"{what}: {', '.join(nl_names)} (time domain)")
             *nl, null = fit_nonlinear_candidates(base.spec, tt, nl_names, k_nl, wolves=settings.nonlinear_wolves,
                                                  iterations=settings.nonlinear_iterations, correlation_time_s=tc,
                                                  include_null=True)  # fmt: skip
@@ -549,7 +566,7 @@ def diagnose(
 
     base0 = _Base(nom_spec, (), (prep.objective, x_nom, None, sign_vec), float(nominal.cost_J), sim_J(nom_spec), val_nom,
                   r2_nom)  # fmt: skip
-    scored, specs, fits, lin_from = rank(base0, cands, k_lin, k_nl)
+    scored, specs, fits, lin_from = rank(base0, cands, k_lin, k_nl, 2, "which")
     ranking = tuple(sorted(scored, key=lambda c: -c.score))
 
     # -- structure: an extra pole pair the paper model lacks is the airframe's, not an effect
@@ -562,11 +579,13 @@ def diagnose(
         base_s = _Base(sm_spec, ("structural_mode",), (prep.objective, f_sm.x[:5], f_sm.x[5:], sign_vec), f_sm.cost_J,
                        sim_J(sm_spec), list(structure.predicted), structure.val_r2)  # fmt: skip
         k_lin_s, k_nl_s = jax.random.split(jax.random.fold_in(key, 1))
-        scored, specs, fits, lin_from = rank(base_s, [c for c in cands if c != "structural_mode"], k_lin_s, k_nl_s)
+        scored, specs, fits, lin_from = rank(base_s, [c for c in cands if c != "structural_mode"], k_lin_s, k_nl_s, 3,
+                                             "which, on top of the extra mode")  # fmt: skip
         ranking = tuple(sorted(scored, key=lambda c: -c.score))
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
 
     # -- how far: the top two combined
+    tick(4, "how far: the top two combined")
     combined = None
     if structure is not None and ranking:
         # the top two are the extra mode and the best effect on top of it, fitted together
@@ -628,6 +647,7 @@ def diagnose(
                 f"{a.effects[0]} and {b.effects[0]} explain the data almost equally well"
                 + (f"; {tip}." if tip else "; fly a wider-band, two-amplitude sweep to separate them.")
             )
+    tick(len(DIAGNOSE_STAGES), "done")
     return Diagnosis(
         channel=channel,
         nominal_params={k: float(v) for k, v in zip(("K", "tau", "M", "omega_s", "zeta_s"), p_true)},

@@ -59,6 +59,8 @@ def add_parser(sub) -> None:
                    help="write the nominal model (.json model file or .npz), candidates in its metadata")
     p.add_argument("--export-format", choices=EXPORT_FORMATS, default=None,
                    help="format of --export (default: from its extension)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress line on stderr (shown only on a terminal anyway)")
     add_input_options(p)
     p.set_defaults(func=run)
 
@@ -91,8 +93,9 @@ def export_diagnosis(d, path: str, fmt: str | None, source: str, command: str | 
 def run(args) -> int:
     from .._atomic import atomic_write_text
     from .._data import default_dataset
-    from .._diagnose import DiagnoseSettings, diagnose, plot_diagnosis
+    from .._diagnose import DIAGNOSE_STAGES, DiagnoseSettings, diagnose, plot_diagnosis
     from .._identify import IdentifySettings
+    from .._progress import Progress
 
     if args.files and not args.validate:
         raise ValueError("diagnose needs held-out records: pass --validate VAL [VAL ...] (the ranking is scored on them).")
@@ -118,7 +121,9 @@ def run(args) -> int:
     ids = IdentifySettings(method="wls-igwo+polish", wolves=args.wolves, iterations=args.iterations,
                            seed=args.seed, w_max=args.w_max)
     settings = DiagnoseSettings(identify=ids, wolves=args.wolves, iterations=args.iterations, seed=args.seed)
-    d = diagnose(train, val, args.channel, settings)
+    # a diagnosis takes minutes: a stage line on a terminal, between the compiled calls
+    with Progress(len(DIAGNOSE_STAGES), "diagnose", "stages", quiet=args.quiet, eta=False) as bar:
+        d = diagnose(train, val, args.channel, settings, progress=bar.update)
     print(d.summary())
     if args.json:
         atomic_write_text(args.json, json.dumps(d.to_json(), indent=2) + "\n")
