@@ -548,9 +548,9 @@ def main() -> int:
         )  # fmt: skip
     # one normal form of --classes, read by phase 1 and by the report alike
     args.classes = ",".join(c.strip() for c in args.classes.split(",") if c.strip())
-    unknown = [c for c in args.classes.split(",") if c not in CLASSES]
     if not args.classes:
         ap.error(f"--classes names no class; choose from {', '.join(CLASSES)}")
+    unknown = [c for c in args.classes.split(",") if c not in CLASSES]
     if unknown:
         ap.error(f"unknown class(es) {unknown}; choose from {', '.join(CLASSES)}")
     workdir = args.workdir or tempfile.mkdtemp(prefix="blind_diagnosis_")

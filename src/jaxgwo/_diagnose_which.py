@@ -810,9 +810,9 @@ def _polish_nonlinear(obj: NonlinearOutputError, x0: np.ndarray, lo: np.ndarray,
 
     ``"Nelder-Mead"`` (``50 n`` evaluations) or ``"L-BFGS-B"`` (``maxiter`` steps, the
     gradient by batched central differences, :func:`_nl_value_and_grad`, about two
-    evaluations' cost): the first is cheap, the second finishes where a bounded simplex stopped on a box
-    edge (servo damping pinned at 0.25 at twice the error a polish from the truth reaches,
-    for a strong rate limit started from a rotor term 20 % off)."""
+    evaluations' cost): the first is cheap, the second finishes where a bounded simplex
+    stopped on a box edge (servo damping pinned at 0.25 at twice the error a polish from the
+    truth reaches, for a strong rate limit started from a rotor term 20 % off)."""
     from scipy.optimize import minimize
 
     free = np.arange(1, x0.size) if null else np.arange(x0.size)
