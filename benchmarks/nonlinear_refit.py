@@ -54,6 +54,7 @@ def main() -> int:
     import numpy as np
 
     import jaxgwo
+    from jaxgwo._atomic import atomic_write_text
     from jaxgwo._data import default_dataset
     from jaxgwo._diagnose import DiagnoseSettings, _time_pairs
     from jaxgwo._diagnose_which import (
@@ -137,11 +138,7 @@ def main() -> int:
           f"{fits[-1].train_mse:.4g}, best candidate's "
           f"{min(f.train_mse for f in fits[:-1]):.4g}.", ""]  # fmt: skip
     os.makedirs(args.out, exist_ok=True)
-    path = os.path.join(args.out, "nonlinear_refit.md")
-    tmp = path + ".tmp"
-    with open(tmp, "w") as fh:
-        fh.write("\n".join(L))
-    os.replace(tmp, path)
+    atomic_write_text(os.path.join(args.out, "nonlinear_refit.md"), "\n".join(L))
     print("\n".join(L))
     return 0
 
