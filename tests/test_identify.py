@@ -208,3 +208,19 @@ def test_search_randomness_is_the_eager_splits(seed):
         assert np.asarray(normals[i]).tobytes() == ref.tobytes()
     assert np.array_equal(np.asarray(jax.random.key_data(run_keys)),
                           np.asarray(jax.random.key_data(jax.random.split(k_run, 2))))
+
+
+@pytest.mark.parametrize("zeta_start", [0.004, 0.03, 0.5, 4.0, 40.0])
+def test_search_box_keeps_the_servo_damping_physical_and_the_box_upright(zeta_start):
+    """The search box around a WLS start: ``factor`` either side, ``zeta_s`` within
+    [0.05, 3].  A start far outside that range (0.004 came from a paper plant with an 18 ms
+    delay) once left the box inverted and identification failed with "inverted bounds"."""
+    from jaxgwo._identify import _box
+
+    x0 = np.log([300.0, 0.11, 185.0, 49.0, zeta_start])
+    lo, hi = _box(x0, 2.0)
+    assert np.all(lo < hi)
+    assert np.allclose(lo[:4], x0[:4] - np.log(2.0)) and np.allclose(hi[:4], x0[:4] + np.log(2.0))
+    assert np.log(0.05) - 1e-12 <= lo[4] < hi[4] <= np.log(3.0) + 1e-12
+    c = np.clip(zeta_start, 0.05, 3.0)  # the box around the start moved inside the physical range
+    assert np.isclose(np.exp(lo[4]), max(c / 2.0, 0.05)) and np.isclose(np.exp(hi[4]), min(c * 2.0, 3.0))

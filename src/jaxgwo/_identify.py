@@ -343,9 +343,13 @@ def _box(x0, factor: float) -> tuple[np.ndarray, np.ndarray]:
     half = math.log(factor)
     x0 = np.asarray(x0, dtype=float)
     lo, hi = x0 - half, x0 + half
-    # zeta_s (index 4) is kept physical: [0.05, 3]
-    lo[4] = np.maximum(lo[4], math.log(0.05))
-    hi[4] = np.minimum(hi[4], math.log(3.0))
+    # zeta_s (index 4) is kept physical: [0.05, 3], the box around the start's value moved
+    # inside first (a WLS start can put it far outside: 0.004 on a paper plant with an
+    # 18 ms delay, where capping alone left the box inverted)
+    z_lo, z_hi = math.log(0.05), math.log(3.0)
+    c = min(max(float(x0[4]), z_lo), z_hi)
+    lo[4] = max(c - half, z_lo)
+    hi[4] = min(c + half, z_hi)
     return lo, hi
 
 
