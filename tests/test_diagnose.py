@@ -173,6 +173,76 @@ def test_delay_aware_start_recovers_a_long_delay_and_the_gain_sign():
     assert ds.cost_J < 1.0  # WLS on the exactly delay-compensated, noise-free response is all but exact
 
 
+def test_mode_profile_finds_a_mode_the_nominal_servo_absorbed():
+    """The structural mode's profile (``_mode_scan``) refits the paper parameters and the
+    damping at every grid frequency.  Started, as a nominal fit leaves it, from a servo
+    damping bent by the mode (0.75 x), it finds the mode; and at a held frequency its
+    Levenberg-Marquardt reaches the J of scipy's least_squares."""
+    from scipy.optimize import least_squares
+
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import _Z_HI, _Z_LO, _Z_NEUTRAL, AugmentedCifer, _active_mask, _mode_scan, _profile_lm
+    from jaxgwo._effects import structural_mode_response
+    from jaxgwo._models import ParameterMap
+
+    freq, zp, zz = 6.0, 0.063, 0.103
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, freq, zp, zz))
+    act = _active_mask(["structural_mode"])
+    obj = AugmentedCifer.from_cifer(CiferObjective.from_response(resp, ParameterMap.for_model(MODEL)), act)
+    x_true = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    x_bent = x_true + np.array([0.0, 0.0, 0.0, 0.0, np.log(0.75)])
+    lo = np.r_[x_bent - np.log(2.0), np.where(act, _Z_LO, _Z_NEUTRAL)]
+    hi = np.r_[x_bent + np.log(2.0), np.where(act, _Z_HI, _Z_NEUTRAL + 1e-9)]
+    j_bent = float(obj(jnp.asarray(np.r_[x_bent, _Z_NEUTRAL])))
+    scan = _mode_scan(obj, x_bent, _Z_NEUTRAL, lo, hi)
+    best = scan[0]
+    assert abs(np.exp(best[8]) / freq - 1.0) < 0.06  # within a step of the 48-point grid
+    assert float(obj(jnp.asarray(best))) < 0.05 * j_bent
+    assert np.all(best >= lo) and np.all(best <= hi)
+    # one row at a held frequency 4 % off, against scipy's bounded least squares
+    x0 = np.r_[x_bent, 0.0, np.log(100.0), 0.0, np.log(1.04 * freq), np.log(0.05), np.log(0.15)]
+    free = np.r_[np.ones(5, bool), act]
+    free[8] = False
+    xs, js = _profile_lm(obj, jnp.asarray(x0[None]), jnp.asarray(free), jnp.asarray(lo), jnp.asarray(hi))
+    idx = np.flatnonzero(free)
+
+    def res(v):
+        x = x0.copy()
+        x[idx] = v
+        return np.asarray(obj.residuals(jnp.asarray(x)))
+
+    ref = least_squares(res, x0[idx], bounds=(lo[idx], hi[idx]), xtol=1e-12, ftol=1e-12)
+    j_ref = float(np.sum(ref.fun**2))
+    assert j_ref < 0.5 * j_bent  # the held frequency still leaves a J worth refining
+    assert float(js[0]) <= 1.02 * j_ref
+    assert np.asarray(xs)[0, 8] == x0[8]  # the frequency stays held
+
+
+def test_structure_box_reaches_a_pole_pair_beyond_the_resonance_box():
+    """A pole pair the paper model lacks, damped beyond the vocabulary's resonances (poles
+    0.7, zeros 4: real zeros): the vocabulary's box stops on its caps, the structure
+    step's box (``z_hi=_Z_HI_STRUCTURE``) recovers the pair on noise-free data."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import _Z_HI, _Z_HI_STRUCTURE, fit_linear_candidates
+    from jaxgwo._effects import structural_mode_response
+    from jaxgwo._models import ParameterMap
+
+    freq, zp, zz = 5.0, 0.7, 4.0
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, freq, zp, zz))
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    key = jax.random.key(3)
+    (narrow,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], key, wolves=10, iterations=25)
+    (wide,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], key, wolves=10, iterations=25,
+                                    z_hi=_Z_HI_STRUCTURE)  # fmt: skip
+    n, w = narrow.params["structural_mode"], wide.params["structural_mode"]
+    assert n["zeta_p"] <= np.exp(_Z_HI[4]) + 1e-9 and n["zeta_z"] <= np.exp(_Z_HI[5]) + 1e-9
+    assert wide.cost_J < 0.1 * narrow.cost_J
+    assert all(abs(w[k] / v - 1.0) < 0.01 for k, v in (("freq_hz", freq), ("zeta_p", zp), ("zeta_z", zz)))
+
+
 def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
     from jaxgwo._diagnose import _time_pairs
     from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
