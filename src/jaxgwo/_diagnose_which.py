@@ -264,11 +264,6 @@ def _profile_lm(objective: AugmentedCifer, xs, free, lo, hi, steps: int = 12):
     return jax.vmap(one)(xs)
 
 
-@eqx.filter_jit
-def _batched_cost(objective: AugmentedCifer, xs):
-    return jax.vmap(objective)(xs)
-
-
 def _active_mask(names: Sequence[str]) -> np.ndarray:
     act = np.zeros(6, bool)
     for n in names:
