@@ -59,7 +59,7 @@ from jaxtyping import Array, Bool, Float
 from . import _gwo as G
 from ._cost import CiferObjective
 from ._effects import EFFECTS, rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
-from ._identify import _jacobian, _residuals  # the jitted residual/Jacobian pair
+from ._identify import ZETA_S_RANGE, _jacobian, _residuals  # the jitted residual/Jacobian pair
 from ._metrics import r_squared, theil_inequality
 from ._models import simulate_transfer_function
 
@@ -308,9 +308,9 @@ def fit_linear_candidates(
     z_top = _Z_HI if z_hi is None else np.asarray(z_hi, float)
     for i, names in enumerate(candidates):
         act = _active_mask(names)
-        # the servo damping's box stays inside [0.05, 3] even when the nominal fit ran to an edge
+        # the servo damping's box stays inside ZETA_S_RANGE even when the nominal fit ran to an edge
         x_c = x_nom.copy()
-        x_c[4] = min(max(x_c[4], math.log(0.05) + half), math.log(3.0) - half)
+        x_c[4] = min(max(x_c[4], math.log(ZETA_S_RANGE[0]) + half), math.log(ZETA_S_RANGE[1]) - half)
         lo = np.r_[x_c - half, np.where(act, _Z_LO, _Z_NEUTRAL)]
         hi = np.r_[x_c + half, np.where(act, z_top, _Z_NEUTRAL + 1e-9)]
         ku, kn = jax.random.split(init_keys[i])

@@ -335,6 +335,10 @@ def wls_start(response: FrequencyResponse, sk_iterations: int = 5) -> tuple[Pape
         return PaperModel.from_array(jnp.asarray([k, tau, m, ws, zs])), note
 
 
+ZETA_S_RANGE = (0.05, 3.0)
+"""The servo damping every search box keeps to (a physical servo; the paper's is 0.5-0.7)."""
+
+
 def _box(x0, factor: float) -> tuple[np.ndarray, np.ndarray]:
     """The search box ``[x0 - ln f, x0 + ln f]`` (log-parameters), ``zeta_s`` capped.
 
@@ -346,7 +350,7 @@ def _box(x0, factor: float) -> tuple[np.ndarray, np.ndarray]:
     # zeta_s (index 4) is kept physical: [0.05, 3], the box around the start's value moved
     # inside first (a WLS start can put it far outside: 0.004 on a paper plant with an
     # 18 ms delay, where capping alone left the box inverted)
-    z_lo, z_hi = math.log(0.05), math.log(3.0)
+    z_lo, z_hi = (math.log(v) for v in ZETA_S_RANGE)
     c = min(max(float(x0[4]), z_lo), z_hi)
     lo[4] = max(c - half, z_lo)
     hi[4] = min(c + half, z_hi)
