@@ -523,11 +523,12 @@ def diagnose(
             scored.append(score(base, own, {e: f.params[e] for e in own}, {e: f.sigma[e] for e in own}, spec, f.cost_J,
                                 base.cost_J, k))  # fmt: skip
         nl_names = [c for c in names if c in NONLINEAR]
-        if nl_names or "cross_coupling" in names:
+        td_names = [c for c in names if c in NONLINEAR or c == "cross_coupling"]
+        if td_names:
             # the time-domain candidates are tested against the null refit: the paper model
             # refitted by output error, without any effect (the frequency-domain base is a
             # poorer output-error model, and beating it is no evidence for an effect)
-            tick(stage, f"{what}: {', '.join([*nl_names, *[c for c in names if c == 'cross_coupling']])} (time domain)")
+            tick(stage, f"{what}: {', '.join(td_names)} (time domain)")
             *nl, null = fit_nonlinear_candidates(base.spec, tt, nl_names, k_nl, wolves=settings.nonlinear_wolves,
                                                  iterations=settings.nonlinear_iterations, correlation_time_s=tc,
                                                  include_null=True)  # fmt: skip

@@ -16,8 +16,10 @@ nominal paper model, refitted, and scored on the held-out records in the time do
   on by an ``active`` mask leaf, so candidates of every kind share one compiled search.
 * ``cross_coupling`` has no single-input frequency-domain signature (the H1 estimate is
   unbiased when the cyclics are uncorrelated), so its gain is the least-squares
-  regression of the time-domain residual on the off-axis input passed through the model;
-  its evidence is the t-test of that gain.
+  regression of the time-domain residual of the *null refit* (below: the paper model
+  refitted by output error, which the nonlinear candidates are tested against as well)
+  on the off-axis input passed through that model; its evidence is the two-sided test of
+  that gain with Bartlett's bound (:func:`fit_cross_coupling`).
 * **Nonlinear effects** (``rate_limit``, ``backlash``, ``saturation``) are fitted in the
   time domain on the identification records (:class:`NonlinearOutputError`): a
   second-order servo with the nonlinearity, integrated by RK4 (as the simulator does),
@@ -992,7 +994,7 @@ class CandidateScore:
     train_p: float
     """p-value of the identification evidence: the F-test of the ``J`` reduction, for the
     nonlinear candidates the larger of it and that of the output-error reduction over the
-    null time-domain refit, for cross-coupling the t-test of its gain."""
+    null time-domain refit, for cross-coupling the two-sided test of its gain."""
     beats_noise: bool
     agreement: float
     score: float
