@@ -383,6 +383,9 @@ def test_time_delay_case_is_found_and_estimated(delay_case):
     assert d.mismatch.equivalent_delay_s > 0.0  # the nominal model leaves residual phase lag
     assert d.combined is not None and d.combined.effects[0] == "time_delay"
     _check_stages(stages, structure=False)
+    # the summary quotes the delay and its (often sub-millisecond) bound to 0.1 ms
+    ms, sig_ms = 1e3 * top.params["time_delay"]["delay_s"], 1e3 * top.sigma["time_delay"]["delay_s"]
+    assert f"time_delay = {ms:.1f} ms (+-{sig_ms:.1f})" in d.summary()
 
 
 def test_no_effect_case_answers_none():

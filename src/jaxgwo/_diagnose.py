@@ -296,7 +296,7 @@ class Diagnosis:
                 for p, v in top.params[e].items():
                     s = top.sigma.get(e, {}).get(p, float("nan"))
                     if p == "delay_s":
-                        parts.append(f"{e} = {1e3 * v:.0f} ms (+-{1e3 * s:.0f})")
+                        parts.append(f"{e} = {1e3 * v:.1f} ms (+-{1e3 * s:.1f})")  # a 0.4 ms bound is no "+-0"
                     else:
                         parts.append(f"{e} {p} = {v:.3g} (+-{s:.2g})")
             lines.append(f"Most likely cause: {', '.join(parts)}.")
