@@ -126,9 +126,15 @@ class DiagnoseSettings:
     seed-0 cases (``benchmarks/blind_diagnosis.py``) and checked on seed 1;
     ``min_error_ratio`` (1.2 there) was lowered to 1.1 on seeds 7 and 8, once every
     nonlinear refit nests the null refit (before, a candidate could fit worse than the
-    null and the ratio carried that search noise), and ``alpha_amplitude`` (the
+    null and the ratio carried that search noise), and to 1.05 on the stored rankings of
+    development seeds 2, 7, 11, 23, 31 and 41 (two runs) replayed under the gate alone:
+    with the held-out confirmation kept, one more true nonlinearity passed on five of the
+    seven runs (mild rate limits and backlash cut the error by x1.05-1.09 and are
+    confirmed on VAL), two wrong verdicts on other effects became other wrong ones, no
+    verdict on none changed, and the wrong nonlinearities that cut the error by more
+    (x1.1-1.4, in lag cases) stay refused by VAL.  ``alpha_amplitude`` (the
     conventional 5 %, the amplitude test and the held-out confirmation being separate
-    evidence) was checked there.
+    evidence) was checked on seeds 7 and 8.
     ``nsigma``: the random-error multiple that flags a frequency band.
     ``structure_zeta_z``: when the top candidate is a ``structural_mode`` whose fitted zero
     damping exceeds it (its zeros are real for values above 1), the fit describes no lightly
@@ -147,7 +153,7 @@ class DiagnoseSettings:
     alpha: float = 1e-3
     z_min: float = -2.0
     z_min_time: float = 1.0
-    min_error_ratio: float = 1.1
+    min_error_ratio: float = 1.05
     strong_error_ratio: float = 1.5
     alpha_amplitude: float = 0.05
     min_gap: float = -0.5
