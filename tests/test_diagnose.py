@@ -459,7 +459,7 @@ def test_cross_coupling_sigma_counts_the_regressors_and_residuals_joint_correlat
 def test_cross_coupling_case_is_found_against_the_time_domain_null_refit():
     """The off-axis stick drives the on-axis plant (gain 0.15).  The gain is fitted on top
     of the null refit (the paper model refitted by output error), whose error it must cut:
-    it is the verdict, estimated within 3 sigma, and the other candidates do not pass."""
+    it is the verdict, estimated within 3 sigma, and raises the held-out R^2."""
     train, val = _case("cross_coupling", seed=3, gain=0.15)
     d = diagnose(train, val, "lateral", SETTINGS)
     assert d.verdict == "cross_coupling"
