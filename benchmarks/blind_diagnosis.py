@@ -255,35 +255,61 @@ def simulate_cases(n_per_class: int, seed: int, workdir: str, r50_fraction: floa
     return dirs
 
 
-def diagnose_cases(dirs: list[str], settings, out_json: str, resume: bool = False) -> dict:
-    """Phase 2: diagnose each case from its CSVs only (the key is not opened here)."""
+def _diagnose_one(case_dir: str, settings) -> dict:
+    """One case's JSON report from its CSVs only (a failed case counts as a wrong answer)."""
     from jaxgwo._data import load_record
     from jaxgwo._diagnose import diagnose
+
+    t0 = time.perf_counter()
+    train = [load_record(os.path.join(case_dir, "train.csv"))]
+    val = [load_record(os.path.join(case_dir, "val.csv"))]
+    try:
+        doc = diagnose(train, val, "lateral", settings).to_json()
+    except Exception as err:  # the study goes on
+        doc = {"verdict": "error", "error": f"{type(err).__name__}: {err}", "ranking": [],
+               "nominal": {"val_r2": float("nan")}}  # fmt: skip
+    doc["wall_s"] = time.perf_counter() - t0
+    return doc
+
+
+def diagnose_cases(dirs: list[str], settings, out_json: str, resume: bool = False, jobs: int = 1) -> dict:
+    """Phase 2: diagnose each case from its CSVs only (the key is not opened here), in
+    ``jobs`` worker processes (spawned: JAX is not fork-safe).  Every case is diagnosed
+    alone with the same settings, so the reports do not depend on ``jobs``; they are
+    written after each case, in case order, so that ``--resume`` can go on."""
+    import concurrent.futures
+    import multiprocessing
+
+    from jaxgwo._atomic import atomic_write_text
 
     results = {}
     if resume and os.path.exists(out_json):
         with open(out_json) as f:
             results = json.load(f)
-    for i, d in enumerate(dirs):
-        name = os.path.basename(d)
-        if name in results:
-            continue
-        t0 = time.perf_counter()
-        train = [load_record(os.path.join(d, "train.csv"))]
-        val = [load_record(os.path.join(d, "val.csv"))]
-        try:
-            doc = diagnose(train, val, "lateral", settings).to_json()
-        except Exception as err:  # a failed case counts as a wrong answer, the study goes on
-            doc = {"verdict": "error", "error": f"{type(err).__name__}: {err}", "ranking": [],
-                   "nominal": {"val_r2": float("nan")}}  # fmt: skip
-        doc["wall_s"] = time.perf_counter() - t0
+    todo = [d for d in dirs if os.path.basename(d) not in results]
+    order = {os.path.basename(d): i for i, d in enumerate(dirs)}
+
+    def done(name: str, doc: dict, count: int) -> None:
         results[name] = doc
         top2 = ", ".join(c["effect"] for c in doc["ranking"][:2])
-        print(f"[diagnose {i + 1}/{len(dirs)}] {name}: verdict {doc['verdict']:<16s} (top-2: {top2}) "
+        print(f"[diagnose {count}/{len(dirs)}] {name}: verdict {doc['verdict']:<16s} (top-2: {top2}) "
               f"{doc['wall_s']:.1f} s", flush=True)  # fmt: skip
-        with open(out_json, "w") as f:
-            json.dump(results, f)
-    return results
+        ordered = dict(sorted(results.items(), key=lambda kv: order.get(kv[0], len(order))))
+        atomic_write_text(out_json, json.dumps(ordered))
+
+    count = len(dirs) - len(todo)
+    if jobs <= 1:
+        for d in todo:
+            count += 1
+            done(os.path.basename(d), _diagnose_one(d, settings), count)
+    else:
+        ctx = multiprocessing.get_context("spawn")
+        with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
+            futures = {pool.submit(_diagnose_one, d, settings): os.path.basename(d) for d in todo}
+            for fut in concurrent.futures.as_completed(futures):
+                count += 1
+                done(futures[fut], fut.result(), count)
+    return dict(sorted(results.items(), key=lambda kv: order.get(kv[0], len(order))))
 
 
 def _r2(y, p):
@@ -523,12 +549,16 @@ def main() -> int:
     ap.add_argument("--reuse", action="store_true", help="diagnose the cases already in --workdir (no new simulation)")
     ap.add_argument("--resume", action="store_true", help="keep the diagnoses already in WORKDIR/diagnoses.json")
     ap.add_argument("--limit", type=int, default=None, help="diagnose only the first N cases")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="diagnose in N worker processes (each case alone: the reports do not depend on N)")
     ap.add_argument("--classes", default=",".join(CLASSES),
                     help="development runs: simulate only the cases of these classes (comma-separated) from the full draw")
     ap.add_argument("--simulate-only", action="store_true", help="write the cases and the key, then stop")
     args = ap.parse_args()
     if args.quick:
         args.cases_per_effect = 1
+    if args.jobs < 1:
+        ap.error(f"--jobs must be at least 1 (worker processes), got {args.jobs}")
 
     import jaxgwo  # noqa: F401  (float64)
     from jaxgwo._diagnose import DiagnoseSettings
@@ -584,7 +614,7 @@ def main() -> int:
         if args.simulate_only:
             return 0
     dirs = dirs[: args.limit]
-    results = diagnose_cases(dirs, settings, os.path.join(workdir, "diagnoses.json"), resume=args.resume)
+    results = diagnose_cases(dirs, settings, os.path.join(workdir, "diagnoses.json"), resume=args.resume, jobs=args.jobs)
     sc = score(workdir, results)
     write_report(sc, args, args.out, time.perf_counter() - t0)
     r = sc["rows"]
