@@ -615,8 +615,42 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
 @pytest.mark.parametrize("kw, what", [({"min_error_ratio": 0.9}, "min_error_ratio must be a number >= 1"),
                                       ({"strong_error_ratio": 0.5}, "strong_error_ratio must be a number >= 1"),
                                       ({"structure_zeta_z": 0.0}, "structure_zeta_z must be a positive number"),
+                                      ({"lag_over_delay": -0.1}, "lag_over_delay must be a score margin >= 0"),
                                       ({"wolves": 3}, "wolves")])  # fmt: skip
 def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
     with pytest.raises(ValueError, match=what):
         DiagnoseSettings(**kw)
+
+
+def _scored(effect, score, ok=True):
+    from jaxgwo._diagnose_which import CandidateScore
+
+    nan = float("nan")
+    return CandidateScore((effect,), {effect: {}}, {effect: {}}, nan, nan, nan, nan, nan, nan, nan, nan, nan, ok, 0.0,
+                          score, 1)  # fmt: skip
+
+
+@pytest.mark.parametrize("scores, order", [
+    # both lags within 0.15 go ahead of the delay, in their order; the rest keep theirs
+    ({"time_delay": 2.0, "backlash": 1.95, "rotor_flapping": 1.9, "sensor_lag": 1.88, "saturation": 1.0},
+     ["rotor_flapping", "sensor_lag", "time_delay", "backlash", "saturation"]),
+    ({"time_delay": 2.0, "rotor_flapping": 1.9, "sensor_lag": 1.8}, ["rotor_flapping", "time_delay", "sensor_lag"]),
+    ({"time_delay": 2.0, "sensor_lag": 1.8}, ["time_delay", "sensor_lag"]),  # 0.2 behind: the delay stays
+    ({"backlash": 2.0, "time_delay": 1.99, "sensor_lag": 1.98}, ["backlash", "time_delay", "sensor_lag"]),  # only a head delay
+])  # fmt: skip
+def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
+    from jaxgwo._diagnose import _lag_over_delay
+
+    ranking = [_scored(e, v) for e, v in scores.items()]
+    out = _lag_over_delay(ranking, 0.15)
+    assert [c.effects[0] for c in out] == order
+    for c in out:
+        moved = c.effects[0] in ("rotor_flapping", "sensor_lag") and order.index(c.effects[0]) < order.index("time_delay")
+        assert ("ranked_over_delay_by" in c.detail) == moved
+        if moved:
+            assert c.detail["ranked_over_delay_by"] == pytest.approx(scores["time_delay"] - scores[c.effects[0]])
+    assert _lag_over_delay(ranking, 0.0) == tuple(ranking)  # off
+    # a lag that does not beat noise never moves
+    failing = [_scored(e, v, ok=e not in ("rotor_flapping", "sensor_lag")) for e, v in scores.items()]
+    assert _lag_over_delay(failing, 0.15) == tuple(failing)
 
