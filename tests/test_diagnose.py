@@ -654,3 +654,12 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
     failing = [_scored(e, v, ok=e not in ("rotor_flapping", "sensor_lag")) for e, v in scores.items()]
     assert _lag_over_delay(failing, 0.15) == tuple(failing)
 
+
+def test_a_nan_score_sorts_last():
+    """A refit that simulated nothing finite scores NaN; with a plain ``-score`` key
+    Python's sort leaves it where it stood, ahead of a candidate that beats noise."""
+    from jaxgwo._diagnose import _best_first
+
+    ranking = [_scored("backlash", float("nan"), ok=False), _scored("time_delay", 4.8), _scored("sensor_lag", -10.0, ok=False)]
+    assert [c.effects[0] for c in sorted(ranking, key=lambda c: -c.score)][0] == "backlash"  # the trap
+    assert [c.effects[0] for c in sorted(ranking, key=_best_first)] == ["time_delay", "sensor_lag", "backlash"]

@@ -374,6 +374,12 @@ def _agreement(name: str, fm: FrequencyMismatch, amp: AmplitudeDependence, off: 
 _LAGS = ("sensor_lag", "rotor_flapping")
 
 
+def _best_first(c: CandidateScore) -> float:
+    """Sort key of the ranking: highest score first, a NaN score (a refit that simulated
+    nothing finite) last; a NaN key would leave Python's sort out of order."""
+    return -c.score if math.isfinite(c.score) else math.inf
+
+
 def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[CandidateScore, ...]:
     """``ranking`` (best first) with the passing lags that score within ``margin`` of a
     ``time_delay`` at its head moved ahead of it, in their order (:class:`DiagnoseSettings`,
@@ -664,7 +670,7 @@ def diagnose(
     base0 = _Base(nom_spec, (), (prep.objective, x_nom, None, sign_vec), float(nominal.cost_J), sim_J(nom_spec), val_nom,
                   r2_nom)  # fmt: skip
     scored, specs, fits, lin_from = rank(base0, cands, k_lin, k_nl, 2, "which")
-    ranking = _lag_over_delay(sorted(scored, key=lambda c: -c.score), settings.lag_over_delay)
+    ranking = _lag_over_delay(sorted(scored, key=_best_first), settings.lag_over_delay)
 
     # -- structure: an extra pole pair the paper model lacks is the airframe's, not an effect
     structure, paper_ranking = None, ()
@@ -688,13 +694,13 @@ def diagnose(
             w_sc = score(base0, ("structural_mode",), f_w.params, f_w.sigma, w_spec, f_w.cost_J, base0.cost_J, 3)
             if w_sc.beats_noise and f_w.params["structural_mode"]["zeta_z"] > settings.structure_zeta_z:
                 f_sm, sm_spec, structure = f_w, w_spec, w_sc
-                paper_ranking = tuple(sorted((w_sc, *ranking[1:]), key=lambda c: -c.score))
+                paper_ranking = tuple(sorted((w_sc, *ranking[1:]), key=_best_first))
         base_s = _Base(sm_spec, ("structural_mode",), (prep.objective, f_sm.x[:5], f_sm.x[5:], sign_vec), f_sm.cost_J,
                        sim_J(sm_spec), list(structure.predicted), structure.val_r2)  # fmt: skip
         k_lin_s, k_nl_s = jax.random.split(jax.random.fold_in(key, 1))
         scored, specs, fits, lin_from = rank(base_s, [c for c in cands if c != "structural_mode"], k_lin_s, k_nl_s, 3,
                                              "which, on top of the extra mode")  # fmt: skip
-        ranking = _lag_over_delay(sorted(scored, key=lambda c: -c.score), settings.lag_over_delay)
+        ranking = _lag_over_delay(sorted(scored, key=_best_first), settings.lag_over_delay)
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
 
     # -- how far: the top two combined
