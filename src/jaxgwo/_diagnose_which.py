@@ -607,6 +607,15 @@ def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.nda
 # ----------------------------------------------------------------------------- linear, checked in the time domain
 
 
+def _closed_form_gain(s: Float[Array, "rec n"], y: Float[Array, "rec n"], mask: Float[Array, "rec n"]):
+    r"""The output gain :math:`c = \langle s, y\rangle / \langle s, s\rangle` that best scales a
+    prediction ``s`` (zero on the padding) to the data ``y``, and the mean squared error
+    :math:`(\lVert y\rVert^2 - 2c\langle s, y\rangle + c^2\lVert s\rVert^2)/n` over the ``mask``."""
+    ys, ss, yy = jnp.sum(s * y), jnp.sum(s * s), jnp.sum(y * y * mask)
+    c = jnp.where(ss > 0, ys / jnp.where(ss > 0, ss, 1.0), 1.0)
+    return c, (yy - 2 * c * ys + c * c * ss) / jnp.sum(mask)
+
+
 class LinearOutputError(eqx.Module):
     r"""Mean squared output error on the identification records of the paper model with
     the linear effects ``names``, the servo and rotor refitted with them and the output
@@ -654,10 +663,7 @@ class LinearOutputError(eqx.Module):
         return jax.vmap(lambda v: simulate_transfer_function(num, den, self.t, v))(u) * self.mask
 
     def gain_and_mse(self, x):
-        s = self.outputs(x)
-        ys, ss, yy = jnp.sum(s * self.y), jnp.sum(s * s), jnp.sum(self.y * self.y * self.mask)
-        c = jnp.where(ss > 0, ys / jnp.where(ss > 0, ss, 1.0), 1.0)
-        return c, (yy - 2 * c * ys + c * c * ss) / jnp.sum(self.mask)
+        return _closed_form_gain(self.outputs(x), self.y, self.mask)
 
     def __call__(self, x) -> Float[Array, ""]:
         mse = self.gain_and_mse(x)[1]
@@ -825,10 +831,7 @@ class NonlinearOutputError(eqx.Module):
         return jax.vmap(sim)(self.u) * self.mask
 
     def gain_and_mse(self, x):
-        s = self.outputs(x)
-        ys, ss, yy = jnp.sum(s * self.y), jnp.sum(s * s), jnp.sum(self.y * self.y * self.mask)
-        c = jnp.where(ss > 0, ys / jnp.where(ss > 0, ss, 1.0), 1.0)
-        return c, (yy - 2 * c * ys + c * c * ss) / jnp.sum(self.mask)
+        return _closed_form_gain(self.outputs(x), self.y, self.mask)
 
     def __call__(self, x) -> Float[Array, ""]:
         mse = self.gain_and_mse(x)[1]
