@@ -752,8 +752,9 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
 
 
 def _lin_residual_vector(obj: LinearOutputError, x):
-    c, _mse = obj.gain_and_mse(x)
-    return jnp.ravel((obj.y - c * obj.outputs(x)) * obj.mask)
+    s = obj.outputs(x)  # simulated once: the gain and the residual share it
+    c, _mse = _closed_form_gain(s, obj.y, obj.mask)
+    return jnp.ravel((obj.y - c * s) * obj.mask)
 
 
 @eqx.filter_jit
