@@ -113,6 +113,19 @@ def effect_params_from_z(name: str, z) -> dict[str, float]:
     raise ValueError(f"{name} is not fitted in the frequency domain")
 
 
+def _effect_params_and_sigma(names: Sequence[str], z, z_sigma) -> tuple[dict, dict]:
+    """``{effect: {param: value}}`` of ``names`` from the effect coordinates ``z``, and their
+    1-sigma from the coordinates' ``z_sigma`` (delta method where the coordinate is a log:
+    the cutoff and the mode's frequency and damping)."""
+    params = {n: effect_params_from_z(n, z) for n in names}
+    sigma = {}
+    for n in names:
+        logged = n in ("sensor_lag", "structural_mode")
+        sigma[n] = {p: float(abs(v) * z_sigma[s]) if logged else float(z_sigma[s])
+                    for (p, v), s in zip(params[n].items(), _SLOTS[n])}  # fmt: skip
+    return params, sigma
+
+
 class AugmentedCifer(eqx.Module):
     r"""CIFER cost ``J`` (as :class:`jaxgwo._cost.CiferObjective`) of the paper model with the
     linear effects selected by ``active``.
@@ -389,19 +402,9 @@ def fit_linear_candidates(
             sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
         else:
             sd = np.full(idx.size, np.inf)
-        z = x[5:]
         zsd = np.zeros(6)
         zsd[idx[idx >= 5] - 5] = sd[5:]
-        params = {n: effect_params_from_z(n, z) for n in names}
-        sigma = {}
-        for n in names:
-            sl = _SLOTS[n]
-            vals = params[n]
-            sig = {}
-            for (pname, v), s in zip(vals.items(), sl):
-                logged = n in ("sensor_lag", "structural_mode")
-                sig[pname] = float(abs(v) * zsd[s]) if logged else float(zsd[s])
-            sigma[n] = sig
+        params, sigma = _effect_params_and_sigma(names, x[5:], zsd)
         out.append(LinearFit(tuple(names), x, cost, params, sigma))
     return out
 
@@ -741,12 +744,7 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     zsd = np.zeros(6)
     n_own = int(np.sum(own))
     zsd[free[:n_own]] = sd[:n_own]
-    params = {n: effect_params_from_z(n, best[:6]) for n in names}
-    sigma = {}
-    for n in names:
-        logged = n in ("sensor_lag", "structural_mode")
-        sigma[n] = {p: float(abs(v) * zsd[s]) if logged else float(zsd[s])
-                    for (p, v), s in zip(params[n].items(), _SLOTS[n])}  # fmt: skip
+    params, sigma = _effect_params_and_sigma(names, best[:6], zsd)
     refit = {"omega_s": math.exp(best[6]), "zeta_s": math.exp(best[7]), "tau": math.exp(best[8]), "M": math.exp(best[9])}
     return TimeFit(names, params, sigma, c, e0, refit)
 
