@@ -4,6 +4,7 @@ ranking on fixed simulated blind cases, the JSON schema and the CLI end to end."
 import argparse
 import dataclasses
 import json
+import math
 
 import equinox as eqx
 import jax
@@ -319,6 +320,30 @@ def test_nonlinear_error_gradient_matches_forward_mode(effect, value):
     assert np.max(np.abs(np.asarray(g) - ref)) < 1e-6 * np.max(np.abs(ref))
     if effect != "null":
         assert abs(ref[0]) > 1e-3 * np.max(np.abs(ref))  # the limit acts on these records
+
+
+def test_rate_profile_points_against_a_sines_rate_distribution():
+    """The rate limit's profile points are the rates the null refit's servo exceeds on given
+    fractions of the samples.  For a sine through a linear servo the rate is a sinusoid of
+    amplitude ``R = w A |G(jw)|``, exceeded in magnitude on the fraction
+    ``(2/pi) arccos(r/R)`` of the time: the points are ``R cos(pi f / 2)``."""
+    from jaxgwo._diagnose_which import _RATE_FRACTIONS, ModelSpec, _rate_profile, nonlinear_objectives
+
+    _k, tau, m, ws, zs = (float(v) for v in MODEL.to_array())
+    t = np.arange(int(120 * FS)) / FS
+    w, a = 2 * np.pi * 2.0 * math.sqrt(1.01), 0.1  # incommensurate with the sampling: every phase sampled
+    u = a * np.sin(w * t)
+    (obj,) = nonlinear_objectives(ModelSpec(MODEL.to_array()), [(t, u, None, u)], ["null"])
+    x_null = np.log([1.0, ws, zs, tau, m])
+    pts = np.exp(_rate_profile(obj, x_null, (math.log(1e-3), math.log(1e3)), 9))
+    g = ws**2 / abs(ws**2 - w**2 + 2j * zs * ws * w)
+    f = np.geomspace(*_RATE_FRACTIONS, 9)
+    ref = np.sort(w * a * g * np.cos(np.pi * f / 2))
+    np.testing.assert_allclose(pts, ref, rtol=0.01)  # the start-up transient and sampling: 0.3 % seen
+    assert np.all(np.diff(pts) > 0)
+    # and the box clips them
+    clipped = np.exp(_rate_profile(obj, x_null, (math.log(pts[2]), math.log(pts[6])), 9))
+    np.testing.assert_allclose(clipped, np.clip(pts, pts[2], pts[6]), rtol=1e-12)
 
 
 def test_nonlinear_objective_keeps_the_base_models_gyro_filters():
