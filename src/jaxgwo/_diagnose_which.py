@@ -1060,8 +1060,7 @@ def _rate_profile(null_obj: NonlinearOutputError, x_null: np.ndarray, box: tuple
     factor of only 1.18-1.31 on those cases, less than the factor 1.4 between the even
     points in the log of the rate, which step over the narrow minimum."""
     dt = null_obj.dt
-    sp = _ServoParams(jnp.asarray(math.exp(x_null[1])), jnp.asarray(math.exp(x_null[2])), jnp.asarray(jnp.inf),
-                      jnp.asarray(jnp.inf), jnp.asarray(0.0))  # fmt: skip
+    sp = null_obj.servo(jnp.asarray(x_null))  # the null's: no rate limit, saturation or backlash
     pos = np.asarray(jax.vmap(lambda u: _nonlinear_servo(sp, u, dt))(null_obj.u))
     mask = np.asarray(null_obj.mask)
     rate = np.abs(np.diff(pos, axis=1))[(mask[:, 1:] * mask[:, :-1]) > 0] / dt
