@@ -680,6 +680,15 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
     assert _lag_over_delay(failing, 0.15) == tuple(failing)
 
 
+def test_output_error_evidence_is_minus_the_bic_change_per_effective_sample():
+    from jaxgwo._diagnose_which import output_error_evidence
+
+    n, k = 400.0, 3
+    dbic = n * math.log(0.8 / 1.0) + k * math.log(n)  # BIC of the candidate minus that of the null
+    assert output_error_evidence(1.0, 0.8, k, n) == pytest.approx(-dbic / n, rel=1e-12)
+    assert output_error_evidence(1.0, 1.0, 1, n) < 0  # no cut: the added parameter costs
+
+
 def test_a_nan_score_sorts_last():
     """A refit that simulated nothing finite scores NaN; with a plain ``-score`` key
     Python's sort leaves it where it stood, ahead of a candidate that beats noise."""

@@ -53,6 +53,7 @@ from ._diagnose_which import (
     fit_cross_coupling,
     fit_linear_candidates,
     fit_nonlinear_candidates,
+    output_error_evidence,
     refit_linear_time_domain,
     score_candidate,
     simulate_model,
@@ -624,7 +625,7 @@ def diagnose(
                 continue
             td_spec = tdf.spec(base.spec)
             p_td = f_test_p(null.train_mse, tdf.train_mse, k, n_nl - 4 - k)
-            ev = -(math.log(tdf.train_mse / null.train_mse) + k * math.log(n_nl) / n_nl)
+            ev = output_error_evidence(null.train_mse, tdf.train_mse, k, n_nl)
             sc_td = score(base, own, {e: tdf.params[e] for e in own}, {e: tdf.sigma[e] for e in own}, td_spec,
                           sim_J(td_spec), base.cost_J_sim, k, baseline=val_null, extra_p=p_td, j_required=False,
                           evidence=ev, time_domain=True)  # fmt: skip
@@ -648,7 +649,7 @@ def diagnose(
             mse_null = float(np.mean(np.concatenate(tr_res) ** 2))
             g, sg = cc.params["cross_coupling"]["gain"], cc.sigma["cross_coupling"]["gain"]
             p_cc = math.erfc(abs(g / sg) / math.sqrt(2.0)) if sg > 0 else 1.0  # two-sided, Bartlett's sigma
-            ev = -(math.log(max(cc.train_mse, 1e-300) / mse_null) + math.log(n_nl) / n_nl)
+            ev = output_error_evidence(mse_null, max(cc.train_mse, 1e-300), 1, n_nl)
             # as for a nonlinearity: a large cut needs the held-out records only not to contradict it
             strong = mse_null >= settings.strong_error_ratio * cc.train_mse
             scored.append(score(base, ("cross_coupling",), cc.params, cc.sigma, spec, sim_J(spec), base.cost_J_sim, 1,
@@ -668,7 +669,7 @@ def diagnose(
                 level = settings.alpha_amplitude if corroborated else settings.alpha
                 if not corroborated and null.train_mse < settings.min_error_ratio * f.train_mse:
                     p_mse = 1.0  # significant perhaps, but too small an effect to trust
-                ev = -(math.log(f.train_mse / null.train_mse) + math.log(n_nl) / n_nl)
+                ev = output_error_evidence(null.train_mse, f.train_mse, 1, n_nl)
                 # an effect that cuts the null refit's identification error by a large factor
                 # needs the held-out records only not to contradict it, as a linear one does
                 strong = null.train_mse >= settings.strong_error_ratio * f.train_mse

@@ -85,6 +85,7 @@ __all__ = [
     "refit_linear_time_domain",
     "simulated_response_cost",
     "f_test_p",
+    "output_error_evidence",
 ]
 
 FREQUENCY_DOMAIN = ("time_delay", "sensor_lag", "rotor_flapping", "structural_mode")
@@ -1226,6 +1227,13 @@ def f_test_p(before: float, after: float, n_params: int, dof: float) -> float:
         return 1.0
     f = (before - after) / n_params / (after / dof)
     return float(scipy.stats.f.sf(f, n_params, dof))
+
+
+def output_error_evidence(before: float, after: float, n_params: int, n_eff: float) -> float:
+    r"""The evidence of a time-domain candidate: minus the BIC change per effective sample
+    when ``n_params`` added parameters take the output error from ``before`` to ``after``
+    on ``n_eff`` effective samples, :math:`-(\ln(after/before) + k \ln n_{eff} / n_{eff})`."""
+    return -(math.log(after / before) + n_params * math.log(n_eff) / n_eff)
 
 
 def score_candidate(
