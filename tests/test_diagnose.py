@@ -244,6 +244,59 @@ def test_structure_box_reaches_a_pole_pair_beyond_the_resonance_box():
     assert all(abs(w[k] / v - 1.0) < 0.01 for k, v in (("freq_hz", freq), ("zeta_p", zp), ("zeta_z", zz)))
 
 
+def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch):
+    """Each candidate's pack draws from its own key (``candidate_key``: the effects, in any
+    order, and the profile point).  Refitted alone or beside other candidates, in either
+    order, a candidate's packs get the same keys, and its fit is the same; a nonlinear
+    one's also beside a rate limit's extra profile points.  Before, every key was a split
+    of one key by the batch's size, so adding a candidate redrew all the others."""
+    from jaxgwo import _gwo
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose import _time_pairs
+    from jaxgwo._diagnose_which import ModelSpec, candidate_key, fit_linear_candidates, fit_nonlinear_candidates
+    from jaxgwo._models import ParameterMap
+
+    key = jax.random.key(5)
+    draw = lambda names, point=0: float(jax.random.uniform(candidate_key(key, names, point)))  # noqa: E731
+    assert draw(("time_delay", "sensor_lag")) == draw(("sensor_lag", "time_delay"))
+    assert len({draw(()), draw(("time_delay",)), draw(("sensor_lag",)), draw(("time_delay",), 1)}) == 4
+
+    calls = []  # per run_batch call: {a row's rounded bounds: that row's key data}
+    run_batch = _gwo.run_batch
+
+    def spy(cfg, objs, lo, hi, keys, **kw):
+        data = np.asarray(jax.random.key_data(keys))
+        rows = np.round(np.concatenate([np.asarray(lo), np.asarray(hi)], axis=1), 9)
+        calls.append({tuple(r): tuple(d) for r, d in zip(rows, data)})
+        return run_batch(cfg, objs, lo, hi, keys, **kw)
+
+    monkeypatch.setattr(_gwo, "run_batch", spy)
+
+    def same_rows(alone, beside):
+        assert alone and all(beside[r] == d for r, d in alone.items())
+
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * time_delay_response(w, 0.03))
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    (alone,) = fit_linear_candidates(obj, x_nom, [("time_delay",)], key, wolves=6, iterations=5)
+    for batch in ([("sensor_lag",), ("time_delay",)], [("time_delay",), ("rotor_flapping",), ("sensor_lag",)]):
+        fits = fit_linear_candidates(obj, x_nom, batch, key, wolves=6, iterations=5)
+        same_rows(calls[0], calls[-1])
+        beside = fits[batch.index(("time_delay",))]
+        np.testing.assert_allclose(beside.x, alone.x, rtol=1e-12, atol=1e-12)
+
+    train, _val = _case(None, seed=2)
+    tt = _time_pairs(train, "lateral", SETTINGS.identify)
+    base = ModelSpec(np.asarray(MODEL.to_array(), float))
+    kw = dict(key=key, wolves=4, iterations=3, profile_points=4)
+    (sat,) = fit_nonlinear_candidates(base, tt, ["saturation"], **kw)
+    n = len(calls)
+    _rate, sat2 = fit_nonlinear_candidates(base, tt, ["rate_limit", "saturation"], **kw)
+    same_rows(calls[n - 1], calls[-1])  # the saturation's profile rows and the null's row
+    assert sat2.params == sat.params and sat2.train_mse == sat.train_mse
+
+
 def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
     from jaxgwo._diagnose import _time_pairs
     from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates

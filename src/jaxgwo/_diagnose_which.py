@@ -75,6 +75,7 @@ __all__ = [
     "AugmentedCifer",
     "ModelSpec",
     "simulate_model",
+    "candidate_key",
     "fit_linear_candidates",
     "fit_cross_coupling",
     "fit_nonlinear_candidates",
@@ -293,6 +294,16 @@ def _active_mask(names: Sequence[str]) -> np.ndarray:
     return act
 
 
+def candidate_key(key, names: Sequence[str], point: int = 0):
+    """The key of one candidate's pack: ``key`` folded with the candidate's effects (one
+    bit per entry of the vocabulary, so the order they are named in does not matter) and
+    then with its profile ``point``.  A candidate's draws do not depend on which other
+    candidates, or how many profile points, share its batch: adding one leaves the rest
+    as they were.  ``names`` empty is the null refit's."""
+    tag = sum(1 << list(EFFECTS).index(n) for n in set(names))
+    return jax.random.fold_in(jax.random.fold_in(key, tag), point)
+
+
 def fit_linear_candidates(
     objective: CiferObjective,
     x_nominal: np.ndarray,
@@ -324,8 +335,7 @@ def fit_linear_candidates(
     x_nom = np.asarray(x_nominal, float)
     half = math.log(search_factor)
     objs, los, his, inits, profiled = [], [], [], [], []
-    k_init, k_run = jax.random.split(key)
-    init_keys = jax.random.split(k_init, len(candidates))
+    cand_keys = [jax.random.split(candidate_key(key, names)) for names in candidates]  # (init, run) each
     n_seed = max(2, wolves // 2)
     z_top = _Z_HI if z_hi is None else np.asarray(z_hi, float)
     for i, names in enumerate(candidates):
@@ -335,7 +345,7 @@ def fit_linear_candidates(
         x_c[4] = min(max(x_c[4], math.log(ZETA_S_RANGE[0]) + half), math.log(ZETA_S_RANGE[1]) - half)
         lo = np.r_[x_c - half, np.where(act, _Z_LO, _Z_NEUTRAL)]
         hi = np.r_[x_c + half, np.where(act, z_top, _Z_NEUTRAL + 1e-9)]
-        ku, kn = jax.random.split(init_keys[i])
+        ku, kn = jax.random.split(cand_keys[i][0])
         u = np.asarray(jax.random.uniform(ku, (n_seed, 6), dtype=jnp.float64))
         z0 = np.where(act, _Z_LO + u * (z_top - _Z_LO), _Z_NEUTRAL)
         if act[3]:  # a narrow resonance is easily missed: seed its frequency on an even grid
@@ -363,7 +373,7 @@ def fit_linear_candidates(
         inits.append(init)
     cfg = G.igwo(wolves, iterations)
     res = G.run_batch(cfg, G.stack_objectives(objs), jnp.asarray(np.stack(los)), jnp.asarray(np.stack(his)),
-                      jax.random.split(k_run, len(candidates)), init_wolves=jnp.asarray(np.stack(inits)))  # fmt: skip
+                      jnp.stack([k[1] for k in cand_keys]), init_wolves=jnp.asarray(np.stack(inits)))  # fmt: skip
     best = np.asarray(res.best_position)
     out = []
     for names, obj, lo, hi, xb, xs in zip(candidates, objs, los, his, best, profiled):
@@ -951,7 +961,7 @@ def fit_nonlinear_candidates(
     # poor one), so a pack first searches the servo with the rotor held at the nominal and the
     # polish starts from the better of its best wolf and the nominal.
     ladder = _servo_ladder(paper[0], p_lo[1], p_hi[1], wolves)
-    k_null, key = jax.random.split(key)
+    k_null, k_prof = jax.random.split(key)
     n_lo, n_hi = np.r_[0.0, p_lo[:2], paper[2:]], np.r_[1e-9, p_hi[:2], paper[2:] + 1e-9]
     init = np.clip(np.column_stack([np.zeros(wolves), ladder, np.tile(paper[2:], (wolves, 1))]), n_lo, n_hi)
     r0 = G.run(G.igwo(wolves, iterations), null_obj, jnp.asarray(n_lo), jnp.asarray(n_hi), k_null,
@@ -978,11 +988,15 @@ def fit_nonlinear_candidates(
     vals = np.r_[np.concatenate(pts + [np.zeros(0)]), 0.0]
     plo = np.column_stack([vals, np.tile(np.r_[p_lo[:2], x_null[3:]], (vals.size, 1))])
     phi = np.column_stack([vals + 1e-9, np.tile(np.r_[p_hi[:2], x_null[3:] + 1e-9], (vals.size, 1))])
+    # each row's key is its candidate's and point's alone (candidate_key): a rate limit's
+    # extra points, or another candidate, leave the other rows' draws as they were
+    point = np.concatenate([np.arange(np.sum(prow == i)) for i in range(len(names) + 1)])
+    row_keys = [candidate_key(k_prof, (names[i],) if i < len(names) else (), int(j)) for i, j in zip(prow, point)]
     ladder = _servo_ladder(x_null[1], p_lo[1], p_hi[1], wolves)
     init = np.stack([np.column_stack([np.full(wolves, a[0]), ladder, np.tile(a[3:], (wolves, 1))]) for a in plo])
     init = np.clip(init, plo[:, None, :], phi[:, None, :])
     res = G.run_batch(G.igwo(wolves, iterations), G.stack_objectives([objs[i] for i in prow]), jnp.asarray(plo),
-                      jnp.asarray(phi), jax.random.split(key, prow.size), init_wolves=jnp.asarray(init),
+                      jnp.asarray(phi), jnp.stack(row_keys), init_wolves=jnp.asarray(init),
                       keep_history=False)  # fmt: skip
     fit_p, pos_p = np.asarray(res.best_fitness), np.asarray(res.best_position)
     best = []
