@@ -84,6 +84,30 @@ def test_frequency_mismatch_delay_signature_and_none():
     assert fm0.bands_hz == [] and abs(fm0.equivalent_delay_s) < 1e-12 and fm0.resonance_hz is None
 
 
+def test_structural_mode_agrees_only_with_a_resonance_where_it_is_fitted():
+    """A lightly damped gyro-side resonance (6 Hz, pole damping 0.04) shows as a narrow
+    magnitude departure; a structural_mode fitted there, lightly damped, agrees with it
+    (+1).  A broad pole pair (damping 0.6, as one standing in for a lag fits), one fitted
+    a factor 1.5 away, or any mode where no resonance shows, does not (0)."""
+    from jaxgwo._diagnose import _agreement
+    from jaxgwo._diagnose_where import AmplitudeDependence
+    from jaxgwo._effects import structural_mode_response
+
+    freq = 6.0
+    sign = float(np.sign(float(MODEL.K)))
+    G = lambda w: sign * MODEL.frequency_response(w)  # noqa: E731
+    fm = frequency_mismatch(_response(lambda w: G(w) * structural_mode_response(w, freq, 0.04, 0.2)),
+                            np.asarray(G(jnp.geomspace(1.0, 60.0, 80))))  # fmt: skip
+    flat = frequency_mismatch(_response(G), np.asarray(G(jnp.geomspace(1.0, 60.0, 80))))
+    assert fm.resonance_hz == pytest.approx(freq, rel=0.1) and flat.resonance_hz is None
+    amp = AmplitudeDependence(False, 1.1, 0.0, 0.0, 0.0, "", False)
+    mode = lambda f, zp: {"freq_hz": f, "zeta_p": zp, "zeta_z": 0.2}  # noqa: E731
+    assert _agreement("structural_mode", fm, amp, None, mode(freq * 1.05, 0.05)) == 1.0
+    assert _agreement("structural_mode", fm, amp, None, mode(freq, 0.6)) == 0.0
+    assert _agreement("structural_mode", fm, amp, None, mode(freq * 1.5, 0.05)) == 0.0
+    assert _agreement("structural_mode", flat, amp, None, mode(freq, 0.05)) == 0.0
+
+
 def test_residual_tests_whiteness_and_input_lag():
     key_u, key_e = jax.random.split(jax.random.key(3))
     u = np.asarray(jax.random.normal(key_u, (4000,)))

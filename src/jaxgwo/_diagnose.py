@@ -284,6 +284,7 @@ class Diagnosis:
                 "amplitude_dependent": bool(self.amplitude.dependent),
                 "noise_limited_bands_hz": self.noise_limited_bands_hz,
                 "equivalent_delay_s": num(self.mismatch.equivalent_delay_s),
+                "resonance_hz": None if self.mismatch.resonance_hz is None else num(self.mismatch.resonance_hz),
                 "amplitude_note": self.amplitude.note,
             },
             "ranking": [cand(c) for c in self.ranking],
@@ -366,8 +367,31 @@ def _amplitude_agreement(name: str, amp: AmplitudeDependence) -> float:
     return 1.0 if rises == (name == "backlash") else -0.5
 
 
-def _agreement(name: str, fm: FrequencyMismatch, amp: AmplitudeDependence, off: ResidualTests | None) -> float:
-    """How well an effect's expected signature matches the step-2 detectors, in [-1, 1]."""
+_MODE_AGREEMENT_ZETA_P = 0.2
+"""The largest fitted pole damping whose ``structural_mode`` counts as the lightly damped
+resonance step 2 detects (the vocabulary's draws reach 0.08; a broad pole pair that
+mimics a lag fits 0.2-0.7, seed-41 development cases)."""
+_MODE_AGREEMENT_FACTOR = 1.25
+"""How far (a factor) a fitted mode's frequency may lie from the detected resonance."""
+
+
+def _mode_agreement(fm: FrequencyMismatch, params: dict | None) -> float:
+    """1 when step 2 detected a narrow resonance and the fitted ``structural_mode`` is it:
+    lightly damped (pole damping at most :data:`_MODE_AGREEMENT_ZETA_P`) and within a
+    factor :data:`_MODE_AGREEMENT_FACTOR` of the resonance's frequency; else 0.  Any
+    detected resonance counted before, whatever the fit: a broad pole pair standing in
+    for a 25.8 Hz gyro filter (pole damping 0.68) won a seed-79 case by that margin."""
+    if fm.resonance_hz is None or not params:
+        return 0.0
+    light = params["zeta_p"] <= _MODE_AGREEMENT_ZETA_P
+    near = abs(math.log(params["freq_hz"] / fm.resonance_hz)) <= math.log(_MODE_AGREEMENT_FACTOR)
+    return 1.0 if light and near else 0.0
+
+
+def _agreement(name: str, fm: FrequencyMismatch, amp: AmplitudeDependence, off: ResidualTests | None,
+               params: dict | None = None) -> float:
+    """How well an effect's expected signature matches the step-2 detectors, in [-1, 1];
+    ``params`` are the effect's fitted parameters (read for ``structural_mode``)."""
     lag = fm.equivalent_delay_s > 2.0 * fm.equivalent_delay_sigma_s and fm.equivalent_delay_s > 0.002
     if name in NONLINEAR:
         return _amplitude_agreement(name, amp)
@@ -376,7 +400,7 @@ def _agreement(name: str, fm: FrequencyMismatch, amp: AmplitudeDependence, off: 
             return 0.0
         return 1.0 if abs(off.input_residual_peak) > off.xcorr_bound else -0.5
     if name == "structural_mode":
-        return 1.0 if fm.resonance_hz is not None else 0.0
+        return _mode_agreement(fm, params)
     if name == "time_delay":
         return 1.0 if lag and abs(fm.magnitude_slope_db_per_decade) < 1.0 else (0.5 if lag else 0.0)
     # sensor_lag, rotor_flapping: phase lag with a magnitude trend
@@ -539,7 +563,7 @@ def diagnose(
     def score(base: _Base, effects, params, sigma, spec, cost, J0, n_params, baseline=None, extra_p=None, j_required=True,
               evidence=None, time_domain=False, alpha=None, confirm=True):
         pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv]
-        ag = float(np.mean([_agreement(e, fm, amp, off_rt) for e in effects]))
+        ag = float(np.mean([_agreement(e, fm, amp, off_rt, params.get(e)) for e in effects]))
         return score_candidate(tuple(effects), params, sigma, pred, val_meas, base.val_predicted, base.val_r2, cost, J0,
                                m_eff, n_params, tc, dt, ag, baseline_predicted=baseline, extra_train_p=extra_p,
                                j_required=j_required, evidence=evidence, alpha=settings.alpha if alpha is None else alpha,
