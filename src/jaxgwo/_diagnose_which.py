@@ -756,8 +756,7 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     n_own = int(np.sum(own))
     zsd[free[:n_own]] = sd[:n_own]
     params, sigma = _effect_params_and_sigma(names, best[:6], zsd)
-    refit = {"omega_s": math.exp(best[6]), "zeta_s": math.exp(best[7]), "tau": math.exp(best[8]), "M": math.exp(best[9])}
-    return TimeFit(names, params, sigma, c, e0, refit)
+    return TimeFit(names, params, sigma, c, e0, _servo_and_rotor(best[6:10]))
 
 
 def _lin_residual_vector(obj: LinearOutputError, x):
@@ -872,6 +871,11 @@ def _inactive_value(name: str, u_scale: float) -> float:
     if name == "backlash":
         return math.log(lo / 100.0)
     return math.log(hi * 10.0)
+
+
+def _servo_and_rotor(log_values) -> dict[str, float]:
+    """A refit's servo and rotor term, ``{omega_s, zeta_s, tau, M}``, from their logs in that order."""
+    return {n: math.exp(v) for n, v in zip(("omega_s", "zeta_s", "tau", "M"), log_values, strict=True)}
 
 
 def _padded(train, delay: float):
@@ -1047,7 +1051,7 @@ def fit_nonlinear_candidates(
     out = []
     for n, obj, xb in zip(rows, objs, best):
         c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(xb)))
-        refit = {"omega_s": math.exp(xb[1]), "zeta_s": math.exp(xb[2]), "tau": math.exp(xb[3]), "M": math.exp(xb[4])}
+        refit = _servo_and_rotor(xb[1:5])
         if n == "null":
             out.append(TimeFit((), {}, {}, c, e0, refit))
             continue
