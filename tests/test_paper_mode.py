@@ -113,7 +113,12 @@ def test_run_from_noise_free_data_keeps_the_exact_start(noise_free):
     res = identify_paper_mode(noise_free, key=jax.random.key(0), **SMALL)
     cfg = G.igwo(**SMALL)
     assert res.status == "ok" and res.reason == "ok"
-    assert float(res.cost_J) <= float(res.wls_cost_J) < 1e-20
+    # the exact fit is kept: both J at rounding level (any other quartic leaves J orders
+    # above it).  Not ``cost_J <= wls_cost_J``: at 1e-28 J is rounding noise, and the
+    # optimiser's batched evaluation of the same start rounds differently from the unbatched
+    # one (3.88e-28 against 3.85e-28 on the 2026-11-23 machine; equal before).  Elitism is
+    # checked where J is not noise, on the R-50 runs below.
+    assert float(res.cost_J) < 1e-20 and float(res.wls_cost_J) < 1e-20
     hist = np.asarray(res.convergence)
     assert hist.shape == (30,) and np.all(np.diff(hist) <= 0) and hist[-1] == float(res.cost_J)
     assert int(res.evaluations) == cfg.total_evaluations

@@ -244,7 +244,9 @@ def identify_paper_mode(
        :math:`x = 1 + \mathrm{spread}\cdot N(0, 1)` (clipped; wolf 0 exactly at the WLS
        moments), the rest uniformly in the box.
     3. Fitness: CIFER ``J`` of the quartic that eq. (29) gives (``+inf`` if unstable).
-       The optimiser is elitist and wolf 0 is the WLS start, so ``cost_J <= wls_cost_J``.
+       The optimiser is elitist and wolf 0 is the WLS start, so ``cost_J <= wls_cost_J``
+       (up to the rounding of the batched against the unbatched evaluation of that start,
+       which shows only where ``J`` itself is at rounding level, on noise-free data).
 
     Args:
         response: the measured frequency response (any sign of gain).
