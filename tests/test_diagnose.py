@@ -520,6 +520,11 @@ def test_linear_time_domain_check_finds_a_gyro_filter_and_passes_nothing_without
 # -- ranking on fixed blind cases, the report, the CLI -----------------------------------------
 
 
+_DELAY_GROUP = pytest.mark.xdist_group("delay_case")
+"""The tests that share :func:`delay_case` (a diagnosis of about 80 s) run in one worker under
+``pytest -n N --dist loadgroup``."""
+
+
 @pytest.fixture(scope="module")
 def delay_case():
     train, val = _case("time_delay", seed=1, delay_s=0.03)
@@ -537,6 +542,7 @@ def _check_stages(stages, structure: bool):
     assert any("time domain" in note for _i, note in stages)  # the nonlinear refits announce themselves
 
 
+@_DELAY_GROUP
 def test_time_delay_case_is_found_and_estimated(delay_case):
     _, _, d, stages = delay_case
     assert d.verdict == "time_delay"
@@ -643,6 +649,7 @@ def test_f_test_against_scipy():
     assert f_test_p(4.0, 5.0, 1, 30) == 1.0  # no reduction: no evidence
 
 
+@_DELAY_GROUP
 def test_json_report_schema(delay_case):
     _, _, d, _stages = delay_case
     doc = json.loads(json.dumps(d.to_json()))
@@ -663,6 +670,7 @@ def test_json_report_schema(delay_case):
     assert c["gap_closed"] == pytest.approx((c["val_r2"] - r0) / (1 - r0), rel=1e-9)
 
 
+@_DELAY_GROUP
 def test_cli_end_to_end_and_bad_input(delay_case, tmp_path, capsys):
     from jaxgwo.cli import _diagnose as cli
 
