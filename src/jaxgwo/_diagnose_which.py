@@ -1019,8 +1019,8 @@ def fit_nonlinear_candidates(
     # rate 2.20: 0.42 and 0.38 of the null's error with two keys; case_059: 0.076 and
     # 0.093).  Each candidate's _LM_ROWS lowest profile rows are refined by
     # Levenberg-Marquardt with the value, servo and rotor free (all in one batch), and the
-    # two best results finished by L-BFGS-B, the best kept (case_032: 0.351 and 0.354,
-    # below the truth's 0.362; case_059: 0.0764 and 0.0765).
+    # two best results finished by L-BFGS-B, the best kept (case_032: 0.351 and 0.356,
+    # below the truth's 0.362; case_059: 0.0771 and 0.0767).
     sel = np.concatenate([np.flatnonzero(prow == i)[np.argsort(fit_p[prow == i], kind="stable")[:_LM_ROWS]]
                           for i in range(len(names))] + [np.zeros(0, int)])  # fmt: skip
     best = []
