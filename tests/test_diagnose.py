@@ -451,7 +451,7 @@ def test_nonlinear_levenberg_marquardt_against_scipys_least_squares():
     for obj, a, x, f in zip(objs, x0, xs, fs):
         assert f == pytest.approx(_nl_mse(obj, x), rel=1e-12)
         assert f < 0.9 * _nl_mse(obj, a)
-    (x_null, f_null), (x_rate, f_rate) = refs
+    (x_null, f_null), (_x_rate, f_rate) = refs
     assert fs[0] == pytest.approx(f_null, rel=1e-6)
     np.testing.assert_allclose(xs[0], x_null, atol=1e-4)
     assert fs[1] < 1.01 * f_rate

@@ -1024,13 +1024,14 @@ def fit_nonlinear_candidates(
     sel = np.concatenate([np.flatnonzero(prow == i)[np.argsort(fit_p[prow == i], kind="stable")[:_LM_ROWS]]
                           for i in range(len(names))] + [np.zeros(0, int)])  # fmt: skip
     best = []
+    row_of, lo_s, hi_s = prow[sel], lo[prow[sel]], hi[prow[sel]]  # each refined row's candidate and box
     if sel.size:
-        x_lm, f_lm = (np.asarray(v) for v in _nl_lm(G.stack_objectives([objs[i] for i in prow[sel]]),
-                                                      jnp.asarray(np.clip(pos_p[sel], lo[prow[sel]], hi[prow[sel]])),
-                                                      jnp.asarray(lo[prow[sel]]), jnp.asarray(hi[prow[sel]])))  # fmt: skip
+        x_lm, f_lm = (np.asarray(v) for v in _nl_lm(G.stack_objectives([objs[i] for i in row_of]),
+                                                      jnp.asarray(np.clip(pos_p[sel], lo_s, hi_s)),
+                                                      jnp.asarray(lo_s), jnp.asarray(hi_s)))  # fmt: skip
         f_lm = np.where(np.isfinite(f_lm), f_lm, np.inf)
     for i in range(len(names)):
-        mine = prow[sel] == i
+        mine = row_of == i
         starts = x_lm[mine][np.argsort(f_lm[mine], kind="stable")[:2]]
         pol = [_polish_nonlinear(objs[i], x, lo[i], hi[i], False, "L-BFGS-B") for x in starts]
         best.append(min(pol, key=lambda x: _nl_mse(objs[i], x)))
