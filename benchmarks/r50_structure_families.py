@@ -42,8 +42,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import jaxgwo  # noqa: F401  (float64)
-from jaxgwo._diagnose_which import _Z_HI, _Z_HI_STRUCTURE, _Z_LO
-from jaxgwo._plants import R50Plant, paper_params_from_r50, r50_matrices, servo_response
+from jaxgwo._diagnose_which import _SLOTS, _Z_HI, _Z_HI_STRUCTURE, _Z_LO, _Z_NEUTRAL, effect_params_from_z
+from jaxgwo._plants import _IX, R50Plant, paper_params_from_r50, r50_matrices, servo_response
 
 F_HZ = np.geomspace(0.3, 20.0, 200)
 W = 2.0 * np.pi * F_HZ
@@ -66,7 +66,7 @@ def r50_lateral(tau_f: float = 0.0) -> np.ndarray:
     moment ``L_b b`` as the simulator's ``rotor_flapping`` does (one more state)."""
     plant = R50Plant.default()
     a, b = (np.asarray(m, float) for m in r50_matrices(plant.params))
-    ip, ib = 2, 7  # R50_STATE_NAMES: u v p q phi theta a b ...
+    ip, ib = _IX["p"], _IX["b"]
     if tau_f > 0.0:
         lb = a[ip, ib]
         a = np.pad(a, ((0, 1), (0, 1)))
@@ -109,15 +109,8 @@ def effect_response(name, x):
 
 def effect_box(name):
     """Free coordinates and box of an effect, from the diagnosis's z box (jaxgwo._diagnose_which)."""
-    if name == "sensor_lag":
-        return _Z_LO[1:2], _Z_HI[1:2]
-    if name == "time_delay":
-        return _Z_LO[0:1], _Z_HI[0:1]
-    if name == "rotor_flapping":
-        return _Z_LO[2:3], _Z_HI[2:3]
-    if name == "structural_mode":
-        return _Z_LO[3:6], _Z_HI[3:6]
-    return np.zeros(0), np.zeros(0)
+    slots = list(_SLOTS.get(name, ()))
+    return _Z_LO[slots], _Z_HI[slots]
 
 
 def families(p0):
@@ -197,15 +190,9 @@ def run() -> list[dict]:
                 grid = np.linspace(0.15, 0.85, 4)
                 starts = [np.r_[xa, e_lo + g * (e_hi - e_lo)] for g in grid] + [np.r_[x_start, e_lo + 0.5 * (e_hi - e_lo)]]
                 xe, db_e, deg_e = fit(m2, np.r_[lo, e_lo], np.r_[hi, e_hi], starts, h, seed=100 + i)
-                fitted = xe[-ne:]
-                if name == "sensor_lag":
-                    par = {"cutoff_hz": math.exp(fitted[0])}
-                elif name == "time_delay":
-                    par = {"delay_s": fitted[0]}
-                elif name == "rotor_flapping":
-                    par = {"tau_f": fitted[0]}
-                else:
-                    par = {"freq_hz": math.exp(fitted[0]), "zeta_p": math.exp(fitted[1]), "zeta_z": math.exp(fitted[2])}
+                z = _Z_NEUTRAL.copy()
+                z[list(_SLOTS[name])] = xe[-ne:]
+                par = effect_params_from_z(name, z)
                 row |= {"with_db": db_e, "with_deg": deg_e, "fitted": par}
             rows.append(row)
             print(row, flush=True)
