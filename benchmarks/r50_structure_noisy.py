@@ -25,24 +25,25 @@ from scipy.optimize import least_squares
 
 import jaxgwo  # noqa: F401  (float64)
 from jaxgwo._data import load_record
+from jaxgwo._diagnose_which import _Z_HI, _Z_HI_STRUCTURE, _Z_LO
 from jaxgwo._effects import rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
 from jaxgwo._identify import IdentifySettings, _prepare, identify_channels
 
 # the blind study's identification settings (benchmarks/blind_diagnosis.py)
 IDS = IdentifySettings(method="wls-igwo+polish", wolves=12, iterations=30, n_frequencies=80, polish_steps=40,
                        w_max=120.0)  # fmt: skip
-# name -> (lower, upper, starts) of its coordinates: log Hz and log dampings, delays in s
+# name -> (lower, upper, starts) of its coordinates: the diagnosis's z boxes (jaxgwo._diagnose_which)
 STRUCT = {
-    "mode": (np.log([3.0, 0.01, 0.02]), np.log([45.0, 1.0, 10.0]),
+    "mode": (_Z_LO[3:6], _Z_HI_STRUCTURE[3:6],
              [np.log([f, zp, zz]) for f in (3.5, 6, 10) for zp, zz in ((0.5, 1.5), (0.3, 3))]),
     "leadlag": (np.log([0.08, 0.08]), np.log([80.0, 80.0]), [np.log([a, b]) for a in (0.5, 1.1, 2) for b in (2, 4, 8)]),
 }  # fmt: skip
 EFF = {
     "none": (np.zeros(0), np.zeros(0), [np.zeros(0)]),
-    "time_delay": (np.array([0.0]), np.array([0.15]), [np.array([d]) for d in (0.005, 0.02, 0.05)]),
-    "sensor_lag": (np.log([2.0]), np.log([100.0]), [np.log([c]) for c in (8, 20, 50)]),
-    "rotor_flapping": (np.array([0.0]), np.array([0.1]), [np.array([t]) for t in (0.005, 0.02, 0.05)]),
-    "structural_mode": (np.log([3.0, 0.01, 0.02]), np.log([45.0, 0.5, 1.5]),
+    "time_delay": (_Z_LO[[0]], _Z_HI[[0]], [np.array([d]) for d in (0.005, 0.02, 0.05)]),
+    "sensor_lag": (_Z_LO[[1]], _Z_HI[[1]], [np.log([c]) for c in (8, 20, 50)]),
+    "rotor_flapping": (_Z_LO[[2]], _Z_HI[[2]], [np.array([t]) for t in (0.005, 0.02, 0.05)]),
+    "structural_mode": (_Z_LO[3:6], _Z_HI[3:6],
                         [np.log([f, 0.05, 0.15]) for f in (5, 8, 11, 14, 18, 24)]),
 }  # fmt: skip
 
