@@ -824,6 +824,32 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
     assert _lag_over_delay(failing, 0.15) == tuple(failing)
 
 
+@pytest.mark.parametrize("scores, names", [
+    # a lag on top names its twin whatever the scores: the two fit the same responses
+    ({"sensor_lag": 3.0, "time_delay": 1.0}, ("sensor_lag", "rotor_flapping")),
+    ({"rotor_flapping": 3.0}, ("rotor_flapping", "sensor_lag")),
+    # two candidates within the margin: that pair and its separating excitation
+    ({"rate_limit": 2.0, "saturation": 1.95}, ("rate_limit", "saturation")),
+    ({"sensor_lag": 2.0, "time_delay": 1.95}, ("sensor_lag", "time_delay")),
+])  # fmt: skip
+def test_separation_suggestion_names_the_pair_the_data_cannot_tell_apart(scores, names):
+    from jaxgwo._diagnose import SEPARATING_EXCITATION, separation_suggestion
+
+    text = separation_suggestion([_scored(e, v) for e, v in scores.items()])
+    assert text.startswith(names[0]) and names[1] in text
+    assert SEPARATING_EXCITATION[frozenset(names)] in text
+
+
+def test_separation_suggestion_is_silent_without_a_rival():
+    from jaxgwo._diagnose import separation_suggestion
+
+    assert separation_suggestion([]) == ""
+    assert separation_suggestion([_scored("sensor_lag", 3.0, ok=False)]) == ""  # verdict none
+    assert separation_suggestion([_scored("time_delay", 3.0), _scored("sensor_lag", 1.0)]) == ""  # 2.0 apart
+    # a rival that does not beat noise is no rival, however close its score
+    assert separation_suggestion([_scored("backlash", 3.0), _scored("saturation", 2.99, ok=False)]) == ""
+
+
 def test_output_error_evidence_is_minus_the_bic_change_per_effective_sample():
     from jaxgwo._diagnose_which import output_error_evidence
 

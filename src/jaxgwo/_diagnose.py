@@ -70,7 +70,7 @@ from ._identify import (
 )
 from ._metrics import r_squared, theil_inequality
 
-__all__ = ["DIAGNOSE_STAGES", "DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION"]
+__all__ = ["DIAGNOSE_STAGES", "DiagnoseSettings", "Diagnosis", "diagnose", "SEPARATING_EXCITATION", "separation_suggestion"]
 
 SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the data almost equally well; ..."
     frozenset({"sensor_lag", "rotor_flapping"}): (
@@ -351,6 +351,37 @@ class Diagnosis:
         for name, why in self.skipped.items():
             lines.append(f"Skipped {name}: {why}")
         return "\n".join(lines)
+
+
+_SAME_INPUT_OUTPUT = {"sensor_lag": "rotor_flapping", "rotor_flapping": "sensor_lag"}
+"""Effects whose augmented models span the same input-output family once the paper
+parameters are refitted (``test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family``)."""
+
+
+def separation_suggestion(ranking: Sequence[CandidateScore], margin: float = 0.1) -> str:
+    """The report's advice on telling the top candidate from its rivals ("" when none).
+
+    When the top two both beat noise and score within ``margin`` (the score is a
+    log-likelihood ratio per effective point plus the gap closed: a difference below 0.1
+    is within what one more flight would change), it names the pair and the excitation
+    of :data:`SEPARATING_EXCITATION` that separates them.  A top candidate of
+    :data:`_SAME_INPUT_OUTPUT` carries its twin's caveat whatever the scores: the two
+    fit the same responses, so a score difference between them is the fits' luck, not
+    evidence.
+    """
+    if not ranking or not ranking[0].beats_noise:
+        return ""
+    a = ranking[0].effects[0]
+    if len(ranking) >= 2 and ranking[1].beats_noise and ranking[0].score - ranking[1].score < margin:
+        b = ranking[1].effects[0]
+        tip = SEPARATING_EXCITATION.get(frozenset({a, b}))
+        return f"{a} and {b} explain the data almost equally well" + (
+            f"; {tip}." if tip else "; fly a wider-band, two-amplitude sweep to separate them."
+        )
+    twin = _SAME_INPUT_OUTPUT.get(a)
+    if twin is None:
+        return ""
+    return f"{a} fits best, but {twin} would explain the same data; {SEPARATING_EXCITATION[frozenset({a, twin})]}."
 
 
 def _amplitude_agreement(name: str, amp: AmplitudeDependence) -> float:
@@ -795,17 +826,7 @@ def diagnose(
             combined = score(base0, pair, params, sigma, spec, sim_J(spec), base0.cost_J_sim, k2,
                              j_required="cross_coupling" not in pair)  # fmt: skip
 
-    suggestion = ""
-    if len(ranking) >= 2 and ranking[0].beats_noise and ranking[1].beats_noise:
-        a, b = ranking[0], ranking[1]
-        # the score is a log-likelihood ratio per effective point plus the gap closed: a
-        # difference below 0.1 is within what one more flight would change
-        if a.score - b.score < 0.1:
-            tip = SEPARATING_EXCITATION.get(frozenset({a.effects[0], b.effects[0]}))
-            suggestion = (
-                f"{a.effects[0]} and {b.effects[0]} explain the data almost equally well"
-                + (f"; {tip}." if tip else "; fly a wider-band, two-amplitude sweep to separate them.")
-            )
+    suggestion = separation_suggestion(ranking)
     tick(len(DIAGNOSE_STAGES), "done")
     return Diagnosis(
         channel=channel,
