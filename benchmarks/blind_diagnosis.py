@@ -380,7 +380,9 @@ def _share(hits: int, n: int) -> str:
     return f"{100 * hits / n:.0f} % ({hits}/{n})" if n else "no cases"
 
 
-def write_report(sc: dict, args, out_dir: str, elapsed: float) -> None:
+def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
+    """Write the markdown report and the PNG to ``out_dir``; returns the one-line headline
+    (top-1 over effects, false alarms on none) for the terminal."""
     import jax
 
     import jaxgwo
@@ -549,6 +551,7 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> None:
     fig.tight_layout()
     atomic_savefig(fig, os.path.join(out_dir, f"{args.report_name}.png"))
     plt.close(fig)
+    return f"top-1 {_share(n_top1, len(eff_rows))}, false alarms {_share(n_fa, len(none_rows))}"
 
 
 def main() -> int:
@@ -630,12 +633,8 @@ def main() -> int:
     dirs = dirs[: args.limit]
     results = diagnose_cases(dirs, settings, os.path.join(workdir, "diagnoses.json"), resume=args.resume, jobs=args.jobs)
     sc = score(workdir, results)
-    write_report(sc, args, args.out, time.perf_counter() - t0)
-    eff = [x for x in sc["rows"] if x["truth"] != "none"]
-    nul = [x for x in sc["rows"] if x["truth"] == "none"]
-    print(f"top-1 {_share(sum(x['top1'] for x in eff), len(eff))}, "
-          f"false alarms {_share(sum(x['verdict'] != 'none' for x in nul), len(nul))}; "
-          f"wrote {os.path.join(args.out, args.report_name + '.md')}")  # fmt: skip
+    headline = write_report(sc, args, args.out, time.perf_counter() - t0)
+    print(f"{headline}; wrote {os.path.join(args.out, args.report_name + '.md')}")
     return 0
 
 
