@@ -25,7 +25,7 @@ from scipy.optimize import least_squares
 
 import jaxgwo  # noqa: F401  (float64)
 from jaxgwo._data import load_record
-from jaxgwo._diagnose_which import _Z_HI, _Z_HI_STRUCTURE, _Z_LO
+from jaxgwo._diagnose_which import _SLOTS, _Z_HI, _Z_HI_STRUCTURE, _Z_LO
 from jaxgwo._effects import rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
 from jaxgwo._identify import IdentifySettings, _prepare, identify_channels
 
@@ -38,14 +38,14 @@ STRUCT = {
              [np.log([f, zp, zz]) for f in (3.5, 6, 10) for zp, zz in ((0.5, 1.5), (0.3, 3))]),
     "leadlag": (np.log([0.08, 0.08]), np.log([80.0, 80.0]), [np.log([a, b]) for a in (0.5, 1.1, 2) for b in (2, 4, 8)]),
 }  # fmt: skip
-EFF = {
-    "none": (np.zeros(0), np.zeros(0), [np.zeros(0)]),
-    "time_delay": (_Z_LO[[0]], _Z_HI[[0]], [np.array([d]) for d in (0.005, 0.02, 0.05)]),
-    "sensor_lag": (_Z_LO[[1]], _Z_HI[[1]], [np.log([c]) for c in (8, 20, 50)]),
-    "rotor_flapping": (_Z_LO[[2]], _Z_HI[[2]], [np.array([t]) for t in (0.005, 0.02, 0.05)]),
-    "structural_mode": (_Z_LO[3:6], _Z_HI[3:6],
-                        [np.log([f, 0.05, 0.15]) for f in (5, 8, 11, 14, 18, 24)]),
-}  # fmt: skip
+EFF_STARTS = {
+    "none": [np.zeros(0)],
+    "time_delay": [np.array([d]) for d in (0.005, 0.02, 0.05)],
+    "sensor_lag": [np.log([c]) for c in (8, 20, 50)],
+    "rotor_flapping": [np.array([t]) for t in (0.005, 0.02, 0.05)],
+    "structural_mode": [np.log([f, 0.05, 0.15]) for f in (5, 8, 11, 14, 18, 24)],
+}
+EFF = {e: (_Z_LO[list(_SLOTS.get(e, ()))], _Z_HI[list(_SLOTS.get(e, ()))], st) for e, st in EFF_STARTS.items()}
 
 
 def make(obj, sname, ename):
