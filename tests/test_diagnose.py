@@ -33,15 +33,17 @@ SETTINGS = DiagnoseSettings(
 )  # fmt: skip
 
 
-def _case(effect=None, seed=0, **params):
+def _case(effect=None, seed=0, plant_effects=None, **params):
     """TRAIN: two 0.3-10 Hz sweeps (amplitudes 0.05, 0.09) with off-axis pilot activity;
-    VAL: a 3-2-1-1 and a doublet; light gusts, 35 dB SNR.  Same shapes for every case."""
+    VAL: a 3-2-1-1 and a doublet; light gusts, 35 dB SNR.  Same shapes for every case.
+    ``plant_effects`` (an :class:`EffectSet`) is part of the plant, ``effect`` added to it."""
     k = jax.random.split(jax.random.key(seed), 5)
     n = int((3 + D + 2 + D + 2) * FS)
     t = jnp.arange(n, dtype=jnp.float64) / FS
     sw = frequency_sweep(t, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.05, start_s=3) + frequency_sweep(
         t, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.09, start_s=5 + D)
-    eff = EffectSet() if effect is None else EffectSet().with_effect(effect, **params)
+    eff = EffectSet() if plant_effects is None else plant_effects
+    eff = eff if effect is None else eff.with_effect(effect, **params)
     dist = Disturbance(gust_rms=0.05, snr_db=35.0)
     tr = simulate(PaperPlant.default(), jnp.stack([sw, pilot_corrections(k[0], n, FS, rms=0.02)], 1), k[1],
                   sample_rate_hz=FS, disturbance=dist, effects=eff)  # fmt: skip
@@ -643,6 +645,35 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     # switched off, the same data are blamed on a structural mode
     off = diagnose(train, val, "lateral", dataclasses.replace(SETTINGS, structure_zeta_z=float("inf")))
     assert off.structure is None and off.verdict == "structural_mode"
+
+
+def test_structure_hidden_behind_a_long_delay_is_found():
+    """The extra-pole-pair plant of the test above (9 Hz, damping 0.15, real zeros) with a
+    60 ms delay: the delay takes the top place from the mode in the paper-model ranking
+    (as on the blind study's R-50 delays), so the mode is fitted on top of the delay, kept
+    as structure and the delay estimated again on top of it, within the issue's 3 ms
+    (2.4 ms here, 0.6 ms for the delay alone), and most of the held-out gap the delay
+    alone leaves is closed.  Not every draw goes so well with this CI-sized optimiser:
+    with an 80 ms delay and key 4 the mode lands at 6.7 Hz and the delay at 86 ms
+    (held-out R^2 0.991 all the same)."""
+    plant = EffectSet().with_effect("structural_mode", freq_hz=9.0, zeta_p=0.15, zeta_z=1.5)
+    train, val = _case("time_delay", seed=3, plant_effects=plant, delay_s=0.06)
+    stages: list[tuple[int, str]] = []
+    d = diagnose(train, val, "lateral", SETTINGS, progress=lambda done, note: stages.append((done, note)))
+    assert d.structure is not None and d.structure.detail.get("found_behind_time_delay") == 1.0
+    _check_stages(stages, structure=True)
+    sm = d.structure.params["structural_mode"]
+    assert abs(sm["freq_hz"] - 9.0) < 0.15 * 9.0 and sm["zeta_z"] > SETTINGS.structure_zeta_z
+    assert d.paper_ranking[0].effects == ("time_delay",)  # the delay hid the mode from the paper-model ranking
+    assert d.verdict == "time_delay"
+    top = d.ranking[0]
+    assert abs(top.params["time_delay"]["delay_s"] - 0.06) < 0.003
+    # the mode closes most of the held-out gap the delay alone leaves (0.940 -> 0.992 here)
+    alone = d.paper_ranking[0].val_r2
+    assert (top.val_r2 - alone) / (1.0 - alone) > 0.5 and top.val_r2 > 0.98
+    doc = json.loads(json.dumps(d.to_json()))
+    assert doc["structure"]["detail"]["found_behind_time_delay"] == 1.0
+    assert "shows only on top of a time delay" in d.summary()
 
 
 def test_saturation_case_is_found():
