@@ -785,7 +785,7 @@ def diagnose(
         obj_s, sv_s, prior = prep.objective, sign_vec, None
     elif ranking and ranking[0].beats_noise and ranking[0].effects == ("time_delay",) and ranking[0].effects in fits:
         # A long delay takes the top place from the extra pole pair an airframe such as the
-        # R-50's needs (seed-113 R-50 delays of 33 and 61 ms: no structure found, the delay
+        # R-50's needs (seed-113 R-50 delays of 50 and 67 ms: no structure found, the delay
         # off by 9 ms, the held-out R^2 0.83-0.88 against the true model's 0.99+).  The mode
         # is fitted on top of the delay in the structure step's box; where it beats noise
         # against the delay alone and has real zeros it is a structure finding, and the
@@ -803,7 +803,7 @@ def diagnose(
                      ModelSpec(np.exp(f_p.x[:5]) * sv_t, f_p.params), f_p.cost_J, f_top.cost_J, 3)  # fmt: skip
         if sc_p.beats_noise and sm_p["structural_mode"]["zeta_z"] > settings.structure_zeta_z:
             # the base is the pair without its delay, not a refit of the mode alone: without
-            # the delay the mode drifts to imitate it (seed-41 case_006: zero damping 2.6 ->
+            # the delay the mode drifts to imitate it (seed-41 case_006: zero damping 2.0 ->
             # 0.02, a dipole); the delay's candidate on top starts from the pair (prior)
             sm_only = _active_mask(("structural_mode",))
             x_s = np.r_[f_p.x[:5], np.where(sm_only, f_p.x[5:], _Z_NEUTRAL)]
