@@ -855,6 +855,31 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
     assert _lag_over_delay(failing, 0.15) == tuple(failing)
 
 
+def test_structure_step_starts_only_from_a_frequency_domain_winner():
+    import dataclasses
+
+    from jaxgwo._diagnose import _structure_route
+
+    def top(effect, ok=True, td_path=0.0, zeta_z=2.0):
+        c = _scored(effect, 3.0, ok)
+        params = {effect: {"zeta_z": zeta_z}} if effect == "structural_mode" else c.params
+        return dataclasses.replace(c, params=params, detail={"time_domain_path": td_path})
+
+    fits = {("structural_mode",): object(), ("time_delay",): object(), ("sensor_lag",): object()}
+    rest = [_scored("sensor_lag", 1.0)]
+    assert _structure_route([top("structural_mode"), *rest], fits, 1.0) == "mode"
+    assert _structure_route([top("structural_mode", zeta_z=0.8), *rest], fits, 1.0) is None  # a resonance, not structure
+    assert _structure_route([top("time_delay"), *rest], fits, 1.0) == "behind_delay"
+    # a winner by the time-domain path has no J fit to build on: neither branch starts
+    assert _structure_route([top("structural_mode", td_path=1.0), *rest], fits, 1.0) is None
+    assert _structure_route([top("time_delay", td_path=1.0), *rest], fits, 1.0) is None
+    # nothing beats noise, another effect on top, no J fit, no ranking at all
+    assert _structure_route([top("time_delay", ok=False), *rest], fits, 1.0) is None
+    assert _structure_route([_scored("backlash", 3.0), top("time_delay")], fits, 1.0) is None
+    assert _structure_route([top("time_delay")], {}, 1.0) is None
+    assert _structure_route([], fits, 1.0) is None
+
+
 @pytest.mark.parametrize("scores, names", [
     # a lag on top names its twin whatever the scores: the two fit the same responses
     ({"sensor_lag": 3.0, "time_delay": 1.0}, ("sensor_lag", "rotor_flapping")),

@@ -493,6 +493,29 @@ class _Base:
     val_r2: float
 
 
+def _structure_route(ranking: Sequence[CandidateScore], fits: dict, structure_zeta_z: float) -> str | None:
+    """Where the structure step starts, from the paper model's ranking.
+
+    ``"mode"``: the top candidate is a ``structural_mode`` with real zeros (zero damping
+    above ``structure_zeta_z``): an extra pole pair of the airframe.  ``"behind_delay"``:
+    the top candidate is a ``time_delay``, behind which such a mode may hide.  ``None``:
+    no structure step.  Either needs the top candidate to have beaten noise by its
+    frequency-domain fit (``J``, in ``fits``), which the step extends: a candidate that won
+    by the time-domain path did so with a different model (its output-error refit), whose
+    spec and held-out predictions do not belong to that ``J`` fit.
+    """
+    if not ranking or not ranking[0].beats_noise or ranking[0].detail.get("time_domain_path"):
+        return None
+    top = ranking[0]
+    if top.effects not in fits:
+        return None
+    if top.effects == ("structural_mode",) and top.params["structural_mode"]["zeta_z"] > structure_zeta_z:
+        return "mode"
+    if top.effects == ("time_delay",):
+        return "behind_delay"
+    return None
+
+
 def _time_pairs(records: Sequence[FlightRecord], channel: str, settings: IdentifySettings):
     """``(t, u, u_off, y)`` per record for time-domain fits and scores, each signal taken
     relative to its trim (the mean of the first 0.5 s, at most a tenth of the record);
@@ -761,9 +784,8 @@ def diagnose(
 
     # -- structure: an extra pole pair the paper model lacks is the airframe's, not an effect
     structure, paper_ranking = None, ()
-    if (ranking and ranking[0].beats_noise and ranking[0].effects == ("structural_mode",)
-            and not ranking[0].detail.get("time_domain_path")
-            and ranking[0].params["structural_mode"]["zeta_z"] > settings.structure_zeta_z):  # fmt: skip
+    route = _structure_route(ranking, fits, settings.structure_zeta_z)
+    if route == "mode":
         structure, paper_ranking = ranking[0], ranking
         f_sm = fits[("structural_mode",)]
         sm_spec = specs[("structural_mode",)]
@@ -783,7 +805,7 @@ def diagnose(
                 f_sm, sm_spec, structure = f_w, w_spec, w_sc
                 paper_ranking = tuple(sorted((w_sc, *ranking[1:]), key=_best_first))
         obj_s, sv_s, prior = prep.objective, sign_vec, None
-    elif ranking and ranking[0].beats_noise and ranking[0].effects == ("time_delay",) and ranking[0].effects in fits:
+    elif route == "behind_delay":
         # A long delay takes the top place from the extra pole pair an airframe such as the
         # R-50's needs (seed-113 R-50 delays of 50 and 67 ms: no structure found, the delay
         # off by 9 ms, the held-out R^2 0.83-0.88 against the true model's 0.99+).  The mode
