@@ -676,6 +676,32 @@ def test_structure_hidden_behind_a_long_delay_is_found():
     assert "shows only on top of a time delay" in d.summary()
 
 
+def test_a_nominal_that_does_not_simulate_still_gets_finite_time_domain_tests():
+    """A 50 ms delay drives the delay-free nominal to a servo of some 5e5 rad/s with
+    damping 1e-3, which no simulation survives.  The time-domain fits then start from the
+    linear refit that simulates (the delay's), so the null refit, its error and the
+    nonlinear candidates' F-tests are finite instead of NaN, and scipy's warning on NaN
+    input is not raised; the verdict is the delay's either way."""
+    import warnings
+
+    from jaxgwo._diagnose import _simulates, _time_pairs
+    from jaxgwo._diagnose_which import NONLINEAR, ModelSpec
+
+    train, val = _case("time_delay", seed=1, delay_s=0.05)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        d = diagnose(train, val, "lateral", SETTINGS)
+    p = np.array([d.nominal_params[k] for k in ("K", "tau", "M", "omega_s", "zeta_s")])
+    assert not _simulates(ModelSpec(p), _time_pairs(train, "lateral", SETTINGS.identify))  # the case this is about
+    assert d.verdict == "time_delay" and abs(d.ranking[0].params["time_delay"]["delay_s"] - 0.05) < 0.003
+    nulls = [c.detail["null_train_mse"] for c in d.ranking if "null_train_mse" in c.detail]
+    assert len(nulls) >= len(NONLINEAR) and all(np.isfinite(nulls))
+    for c in d.ranking:
+        if c.effects[0] in NONLINEAR:
+            assert np.isfinite(c.detail["train_mse"]) and 0.0 <= c.train_p <= 1.0
+    assert not [w for w in caught if "NAN" in str(w.message).upper()], [str(w.message) for w in caught]
+
+
 def test_saturation_case_is_found():
     train, val = _case("saturation", seed=1, limit=0.07)
     d = diagnose(train, val, "lateral", SETTINGS)

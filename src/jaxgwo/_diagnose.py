@@ -516,6 +516,17 @@ def _structure_route(ranking: Sequence[CandidateScore], fits: dict, structure_ze
     return None
 
 
+def _train_mse(spec: ModelSpec, pairs) -> float:
+    """Mean squared output error of ``spec`` simulated on ``pairs`` ``(t, u, u_off, y)``;
+    ``inf`` where the simulation is not finite."""
+    err = np.concatenate([y - simulate_model(spec, t, u) for t, u, _o, y in pairs])
+    return float(np.mean(err**2)) if np.all(np.isfinite(err)) else math.inf
+
+
+def _simulates(spec: ModelSpec, pairs) -> bool:
+    return math.isfinite(_train_mse(spec, pairs))
+
+
 def _time_pairs(records: Sequence[FlightRecord], channel: str, settings: IdentifySettings):
     """``(t, u, u_off, y)`` per record for time-domain fits and scores, each signal taken
     relative to its trim (the mean of the first 0.5 s, at most a tenth of the record);
@@ -679,10 +690,21 @@ def diagnose(
             # poorer output-error model, and beating it is no evidence for an effect); the
             # linear candidates are checked against it as well
             tick(stage, f"{what}: {', '.join(td_names + ['linear checks'] if lin else td_names)} (time domain)")
-            *nl, null = fit_nonlinear_candidates(base.spec, tt, nl_names, k_nl, wolves=settings.nonlinear_wolves,
+            td_base = base.spec
+            if not base.linear and not _simulates(base.spec, tt):
+                # A long delay can drive the delay-free nominal to a model no simulation
+                # survives (seed-41 case_041, 30 ms: servo at 3e7 rad/s, damping 1e-4), and a
+                # refit from there stays non-finite (the null's error NaN, its residual tests
+                # warning on NaN input).  The time-domain fits then start from the paper part
+                # of the linear refit that simulates best; nothing else changes.
+                alts = [ModelSpec(np.exp(f.x[:5]) * lin_from[f.effects][3]) for f in lin]
+                errs = [_train_mse(a, tt) for a in alts]
+                if any(math.isfinite(e) for e in errs):
+                    td_base = alts[int(np.nanargmin(np.where(np.isfinite(errs), errs, np.nan)))]
+            *nl, null = fit_nonlinear_candidates(td_base, tt, nl_names, k_nl, wolves=settings.nonlinear_wolves,
                                                  iterations=settings.nonlinear_iterations, correlation_time_s=tc,
                                                  include_null=True)  # fmt: skip
-            null_spec = null.spec(base.spec)
+            null_spec = null.spec(td_base)
             val_null = [simulate_model(null_spec, t, u) for t, u, _o, _y in tv]
             # effective samples of the identification output error from its own correlation time
             tr_res = [y - simulate_model(null_spec, t, u) for t, u, _o, y in tt]
@@ -713,11 +735,11 @@ def diagnose(
             z = np.where(_active_mask(base.linear), seed0, f.x[5:]) if base.linear else f.x[5:]
             x_j = np.r_[z, f.x[3], f.x[4], f.x[1], f.x[2]]
             x_n = np.r_[z, np.log([nul["omega_s"], nul["zeta_s"], nul["tau"], nul["M"]])]
-            tdf = refit_linear_time_domain(base.spec, tt, f.effects, [x_j, x_n], tc_tr, held=base.linear)
+            tdf = refit_linear_time_domain(td_base, tt, f.effects, [x_j, x_n], tc_tr, held=base.linear)
             if tdf is None:  # no start simulates: the J verdict stands alone
                 lin_scores.append((own, sc, None, None, {"time_domain_path": 0.0, "td_failed": 1.0}))
                 continue
-            td_spec = tdf.spec(base.spec)
+            td_spec = tdf.spec(td_base)
             p_td = f_test_p(null.train_mse, tdf.train_mse, k, n_nl - 4 - k)
             ev = output_error_evidence(null.train_mse, tdf.train_mse, k, n_nl)
             sc_td = score(base, own, {e: tdf.params[e] for e in own}, {e: tdf.sigma[e] for e in own}, td_spec,
@@ -751,7 +773,7 @@ def diagnose(
                                 confirm=not strong))  # fmt: skip
         if nl_names:
             for f in nl:
-                spec = f.spec(base.spec)
+                spec = f.spec(td_base)
                 specs[f.effects] = spec
                 p_mse = f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4)
                 # Gusts dominate the output error, so a real servo nonlinearity may cut it by only
