@@ -896,7 +896,7 @@ def test_structure_step_starts_only_from_a_frequency_domain_winner():
     assert _structure_route([top("structural_mode"), *rest], fits, 1.0) == "mode"
     assert _structure_route([top("structural_mode", zeta_z=0.8), *rest], fits, 1.0) is None  # a resonance, not structure
     assert _structure_route([top("time_delay"), *rest], fits, 1.0) == "behind_delay"
-    # a winner by the time-domain path has no J fit to build on: neither branch starts
+    # a winner by the time-domain path won with its output-error refit, not the J fit the step extends
     assert _structure_route([top("structural_mode", td_path=1.0), *rest], fits, 1.0) is None
     assert _structure_route([top("time_delay", td_path=1.0), *rest], fits, 1.0) is None
     # nothing beats noise, another effect on top, no J fit, no ranking at all
