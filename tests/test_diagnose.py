@@ -700,6 +700,10 @@ def test_a_nominal_that_does_not_simulate_still_gets_finite_time_domain_tests():
         if c.effects[0] in NONLINEAR:
             assert np.isfinite(c.detail["train_mse"]) and 0.0 <= c.train_p <= 1.0
     assert not [w for w in caught if "NAN" in str(w.message).upper()], [str(w.message) for w in caught]
+    # the report says why the nominal's held-out R^2 reads about 0
+    assert not d.nominal_simulates and abs(d.nominal_r2) < 0.01
+    assert json.loads(json.dumps(d.to_json()))["nominal"]["simulates"] is False
+    assert "does not simulate" in d.summary()
 
 
 def test_saturation_case_is_found():
@@ -764,7 +768,8 @@ def test_json_report_schema(delay_case):
     _, _, d, _stages = delay_case
     doc = json.loads(json.dumps(d.to_json()))
     assert {"channel", "nominal", "where", "ranking", "verdict", "combined_top2"} <= set(doc)
-    assert set(doc["nominal"]) == {"params", "cost_J", "val_r2", "val_tic"}
+    assert set(doc["nominal"]) == {"params", "cost_J", "val_r2", "val_tic", "simulates"}
+    assert doc["nominal"]["simulates"] is True and "does not simulate" not in d.summary()  # a 30 ms delay's nominal does
     assert {"bands_hz", "worst_hz", "residual_white", "input_residual_peak_lag_s", "amplitude_dependent",
             "noise_limited_bands_hz"} <= set(doc["where"])  # fmt: skip
     assert len(doc["ranking"]) == 8

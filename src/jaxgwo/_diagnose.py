@@ -248,6 +248,10 @@ class Diagnosis:
     built on, or ``None`` (:class:`DiagnoseSettings`, ``structure_zeta_z``)."""
     paper_ranking: tuple[CandidateScore, ...] = field(repr=False, default=())
     """With a structure finding: the ranking against the paper model alone that found it."""
+    nominal_simulates: bool = True
+    """Whether the nominal's held-out simulation is finite.  A long delay can drive the
+    delay-free paper fit to a servo no simulation survives; its prediction is then taken
+    as zero (``val_nominal``), so its ``nominal_r2`` of about 0 means it predicts nothing."""
 
     def to_json(self) -> dict:
         """The stable JSON report of issue 5 (extra keys: ``skipped``, ``suggestion``,
@@ -283,7 +287,8 @@ class Diagnosis:
         return {
             "channel": self.channel,
             "nominal": {"params": {k: num(v) for k, v in self.nominal_params.items()}, "cost_J": num(self.nominal_cost_J),
-                        "val_r2": num(self.nominal_r2), "val_tic": num(self.nominal_tic)},  # fmt: skip
+                        "val_r2": num(self.nominal_r2), "val_tic": num(self.nominal_tic),
+                        "simulates": bool(self.nominal_simulates)},  # fmt: skip
             "where": {
                 "bands_hz": self.mismatch.bands_hz,
                 "worst_hz": num(self.mismatch.worst_hz),
@@ -317,6 +322,13 @@ class Diagnosis:
             lines.append("The nominal model stays within the response's random-error bounds at every frequency.")
         if self.amplitude.dependent:
             lines.append(f"The response depends on amplitude ({self.amplitude.note}).")
+        if not self.nominal_simulates:
+            p = self.nominal_params
+            lines.append(
+                f"The paper model identified on TRAIN does not simulate (servo {p['omega_s']:.3g} rad/s, damping "
+                f"{p['zeta_s']:.2g}): its held-out prediction is taken as zero, so its R^2 of {self.nominal_r2:.3f} "
+                "means it predicts nothing."
+            )
         before = self.nominal_r2
         if self.structure is not None:
             sm = self.structure.params["structural_mode"]
@@ -600,7 +612,9 @@ def diagnose(
     tv = _time_pairs(validation, channel, ids)
     tt = _time_pairs(train, channel, ids)
     nom_spec = ModelSpec(p_true)
-    val_nom = [np.nan_to_num(simulate_model(nom_spec, t, u), nan=0.0, posinf=0.0, neginf=0.0) for t, u, _o, _y in tv]
+    val_raw = [simulate_model(nom_spec, t, u) for t, u, _o, _y in tv]
+    nominal_simulates = all(np.all(np.isfinite(v)) for v in val_raw)
+    val_nom = [np.nan_to_num(v, nan=0.0, posinf=0.0, neginf=0.0) for v in val_raw]
     val_meas = [y for *_r, y in tv]
     resid = [y - p for y, p in zip(val_meas, val_nom)]
     rt = residual_tests([u for _t, u, _o, _y in tv], resid, dt)
@@ -929,7 +943,7 @@ def diagnose(
         nominal_cost_J=float(nominal.cost_J), nominal_r2=r2_nom, nominal_tic=tic_nom,
         mismatch=fm, residuals=rt, off_axis_residuals=off_rt, amplitude=amp, noise_limited_bands_hz=nlb,
         ranking=ranking, verdict=verdict, combined=combined, skipped=skipped, structure=structure,
-        paper_ranking=paper_ranking,
+        paper_ranking=paper_ranking, nominal_simulates=nominal_simulates,
         val_time=tuple(t for t, *_r in tv), val_measured=tuple(val_meas), val_nominal=tuple(val_nom),
         response_w=np.asarray(resp.w), suggestion=suggestion,
     )  # fmt: skip
