@@ -125,9 +125,6 @@ def _detectability(measured, with_effect, without_effect, max_lag_s: float = 2.0
 # the starts of the mode in the mode oracle's fit (Hz); zeros 2, poles 0.5 (a broad pair with
 # real zeros, as the R-50 structure findings are)
 _ORACLE_MODE_HZ = (3.0, 4.5, 7.0, 11.0)
-# the structure step's box for the mode: freq_hz, zeta_p, zeta_z (jaxgwo._diagnose_which._Z_HI_STRUCTURE)
-_ORACLE_MODE_LO = np.log([3.0, 0.01, 0.02])
-_ORACLE_MODE_HI = np.log([45.0, 1.0, 10.0])
 
 
 def _oracle(start_params, train_rec, val_rec, train_clean, val_clean, base=None, mode=False) -> dict:
@@ -148,7 +145,7 @@ def _oracle(start_params, train_rec, val_rec, train_clean, val_clean, base=None,
     from scipy.optimize import least_squares
 
     from jaxgwo._diagnose import _time_pairs
-    from jaxgwo._diagnose_which import ModelSpec, simulate_model
+    from jaxgwo._diagnose_which import _SLOTS, _Z_HI_STRUCTURE, _Z_LO, ModelSpec, simulate_model
     from jaxgwo._identify import IdentifySettings
 
     ids = IdentifySettings()
@@ -157,8 +154,9 @@ def _oracle(start_params, train_rec, val_rec, train_clean, val_clean, base=None,
     p0 = np.asarray(start_params, float)
     sign = np.sign(p0) * np.array([1.0, 1, 1, 1, 1])
     n_x = 8 if mode else 5
-    lo = np.r_[np.full(5, -np.inf), _ORACLE_MODE_LO][:n_x]
-    hi = np.r_[np.full(5, np.inf), _ORACLE_MODE_HI][:n_x]
+    sm = list(_SLOTS["structural_mode"])  # the structure step's box for the mode: log freq_hz, zeta_p, zeta_z
+    lo = np.r_[np.full(5, -np.inf), _Z_LO[sm]][:n_x]
+    hi = np.r_[np.full(5, np.inf), _Z_HI_STRUCTURE[sm]][:n_x]
 
     def spec(x):
         eff = {"structural_mode": dict(zip(("freq_hz", "zeta_p", "zeta_z"), np.exp(x[5:])))} if mode else {}
