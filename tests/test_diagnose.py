@@ -887,8 +887,6 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
 
 
 def test_structure_step_starts_only_from_a_frequency_domain_winner():
-    import dataclasses
-
     from jaxgwo._diagnose import _structure_route
 
     def top(effect, ok=True, td_path=0.0, zeta_z=2.0):

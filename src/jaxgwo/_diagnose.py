@@ -712,9 +712,9 @@ def diagnose(
                 # warning on NaN input).  The time-domain fits then start from the paper part
                 # of the linear refit that simulates best; nothing else changes.
                 alts = [ModelSpec(np.exp(f.x[:5]) * lin_from[f.effects][3]) for f in lin]
-                errs = [_train_mse(a, tt) for a in alts]
+                errs = [_train_mse(a, tt) for a in alts]  # inf where it does not simulate
                 if any(math.isfinite(e) for e in errs):
-                    td_base = alts[int(np.nanargmin(np.where(np.isfinite(errs), errs, np.nan)))]
+                    td_base = alts[int(np.argmin(errs))]
             *nl, null = fit_nonlinear_candidates(td_base, tt, nl_names, k_nl, wolves=settings.nonlinear_wolves,
                                                  iterations=settings.nonlinear_iterations, correlation_time_s=tc,
                                                  include_null=True)  # fmt: skip
