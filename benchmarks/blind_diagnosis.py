@@ -644,11 +644,7 @@ def main() -> int:
             wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6,
         )  # fmt: skip
     else:
-        settings = DiagnoseSettings(
-            identify=IdentifySettings(method="wls-igwo+polish", wolves=12, iterations=30, n_frequencies=80,
-                                      polish_steps=40, w_max=120.0),
-            wolves=12, iterations=30,
-        )  # fmt: skip
+        settings = DiagnoseSettings()  # what `jaxgwo diagnose` runs by default
     # one normal form of --classes, read by phase 1 and by the report alike
     args.classes = ",".join(c.strip() for c in args.classes.split(",") if c.strip())
     if not args.classes:

@@ -114,6 +114,32 @@ def test_diagnose_exports_nominal_model_and_reports(tmp_path, monkeypatch, files
     assert "Verdict: time_delay" in text
 
 
+def test_diagnose_runs_the_configuration_the_blind_study_validates(monkeypatch, files, capsys):
+    """By default `jaxgwo diagnose` runs ``DiagnoseSettings()``, the configuration of the
+    published blind study (its thresholds were set on those search sizes); --wolves,
+    --iterations and --seed change the nominal fit and the refits alike."""
+    import jaxgwo._diagnose as D
+
+    seen = []
+    monkeypatch.setattr(D, "diagnose", lambda train, val, channel, settings, progress=None: seen.append(settings) or _Diag())
+    base = ["diagnose", files[0], "--validate", files[1], "--channel", "lateral", "--quiet"]
+    assert main(base) == 0, capsys.readouterr().err
+    assert main([*base, "--wolves", "16", "--iterations", "40", "--seed", "3"]) == 0, capsys.readouterr().err
+    default, sized = seen
+    assert default == D.DiagnoseSettings()
+    # the sizes the seed-113 blind study (benchmarks/results/blind_diagnosis_seed113.md) ran
+    # with: change them and that study no longer describes the command's default
+    ids = default.identify
+    assert (ids.method, ids.wolves, ids.iterations, ids.n_frequencies, ids.polish_steps, ids.w_max) == (
+        "wls-igwo+polish", 12, 30, 80, 40, 120.0)
+    assert (default.wolves, default.iterations, default.nonlinear_wolves, default.nonlinear_iterations) == (12, 30, 12, 15)
+    assert (sized.wolves, sized.iterations, sized.seed) == (16, 40, 3)
+    assert (sized.identify.wolves, sized.identify.iterations, sized.identify.seed) == (16, 40, 3)
+    assert sized.identify.n_frequencies == ids.n_frequencies and sized.alpha == default.alpha
+    assert main([*base, "--wolves", "3"]) != 0 and "--wolves must be >= 4" in capsys.readouterr().err
+    assert len(seen) == 2
+
+
 def _help(argv, capsys):
     with pytest.raises(SystemExit) as exc:
         main(argv)

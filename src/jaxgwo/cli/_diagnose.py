@@ -3,6 +3,7 @@ effect causes it, and how far the held-out gap shrinks once it is added."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 from ._identify import add_input_options, check_output_paths, command_line, load_by_channel
@@ -45,10 +46,12 @@ def add_parser(sub) -> None:
     p.add_argument("--channel", choices=("lateral", "longitudinal"), required=True,
                    help="lateral: p/delta_lat, longitudinal: q/delta_lon")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="PRNG seed of the optimisers")
-    p.add_argument("--wolves", type=int, default=20, metavar="N",
-                   help="IGWO pack size for the nominal fit and the refits")
-    p.add_argument("--iterations", type=int, default=60, metavar="N",
-                   help="IGWO iterations for the nominal fit and the refits")
+    p.add_argument("--wolves", type=int, default=None, metavar="N",
+                   help="IGWO pack size for the nominal fit and the refits (default 12: the "
+                        "configuration the blind study validates)")
+    p.add_argument("--iterations", type=int, default=None, metavar="N",
+                   help="IGWO iterations for the nominal fit and the refits (default 30, as "
+                        "the blind study)")
     p.add_argument("--w-max", type=float, default=120.0, metavar="RAD_S",
                    help="highest frequency analysed (rad/s)")
     p.add_argument("--json", metavar="OUT.json", help="write the stable JSON report here")
@@ -90,17 +93,29 @@ def export_diagnosis(d, path: str, fmt: str | None, source: str, command: str | 
                         provenance={"source": source, "command": command or command_line()}, **meta)
 
 
+def diagnose_settings(args):
+    """The diagnosis's settings from the command line: :class:`DiagnoseSettings`'s defaults
+    (the configuration the blind study validates), with ``--seed`` and ``--w-max``, and
+    ``--wolves`` / ``--iterations`` where given (for the nominal fit and the refits alike)."""
+    if (args.wolves is not None and args.wolves < 4) or (args.iterations is not None and args.iterations < 1):
+        raise ValueError("--wolves must be >= 4 and --iterations >= 1.")
+    from .._diagnose import DiagnoseSettings
+
+    base = DiagnoseSettings()
+    size = {k: v for k, v in (("wolves", args.wolves), ("iterations", args.iterations)) if v is not None}
+    ids = dataclasses.replace(base.identify, seed=args.seed, w_max=args.w_max, **size)
+    return dataclasses.replace(base, identify=ids, seed=args.seed, **size)
+
+
 def run(args) -> int:
     from .._atomic import atomic_write_text
     from .._data import default_dataset
-    from .._diagnose import DIAGNOSE_STAGES, DiagnoseSettings, diagnose, plot_diagnosis
-    from .._identify import IdentifySettings
+    from .._diagnose import DIAGNOSE_STAGES, diagnose, plot_diagnosis
     from .._progress import Progress
 
     if args.files and not args.validate:
         raise ValueError("diagnose needs held-out records: pass --validate VAL [VAL ...] (the ranking is scored on them).")
-    if args.wolves < 4 or args.iterations < 1:
-        raise ValueError("--wolves must be >= 4 and --iterations >= 1.")
+    settings = diagnose_settings(args)
     check_output_paths(args)
     ch = args.channel
     if args.files:
@@ -118,9 +133,6 @@ def run(args) -> int:
     else:
         val = [data.validation[ch]]
         source += " (validated on its held-out record)"
-    ids = IdentifySettings(method="wls-igwo+polish", wolves=args.wolves, iterations=args.iterations,
-                           seed=args.seed, w_max=args.w_max)
-    settings = DiagnoseSettings(identify=ids, wolves=args.wolves, iterations=args.iterations, seed=args.seed)
     # a diagnosis takes minutes: a stage line on a terminal, between the compiled calls
     with Progress(len(DIAGNOSE_STAGES), "diagnose", "stages", quiet=args.quiet, eta=False) as bar:
         d = diagnose(train, val, args.channel, settings, progress=bar.update)
