@@ -717,8 +717,14 @@ def diagnose(
                 # survives (seed-41 case_041, 30 ms: servo at 3e7 rad/s, damping 1e-4), and a
                 # refit from there stays non-finite (the null's error NaN, its residual tests
                 # warning on NaN input).  The time-domain fits then start from the paper part
-                # of the linear refit that simulates best; nothing else changes.
+                # of the linear refit that simulates best; nothing else changes.  Without
+                # linear candidates (settings.candidates) the paper part of the delay-aware
+                # WLS start stands in for them.
                 alts = [ModelSpec(np.exp(f.x[:5]) * lin_from[f.effects][3]) for f in lin]
+                if not alts:
+                    ds = delay_aware_start(prep.response, prep.objective, prep.sign,
+                                           np.arange(0.0, _Z_HI[0] + 1e-9, 0.005), ids.sk_iterations)  # fmt: skip
+                    alts = [] if ds is None else [ModelSpec(np.exp(ds.x) * np.array([ds.sign, 1, 1, 1, 1]))]
                 errs = [_train_mse(a, tt) for a in alts]  # inf where it does not simulate
                 if any(math.isfinite(e) for e in errs):
                     td_base = alts[int(np.argmin(errs))]
@@ -726,6 +732,7 @@ def diagnose(
                                                  iterations=settings.nonlinear_iterations, correlation_time_s=tc,
                                                  include_null=True)  # fmt: skip
             null_spec = null.spec(td_base)
+            specs[()] = td_base  # where the time-domain fits started (the combined step's too)
             val_null = [simulate_model(null_spec, t, u) for t, u, _o, _y in tv]
             # effective samples of the identification output error from its own correlation time
             tr_res = [y - simulate_model(null_spec, t, u) for t, u, _o, y in tt]
@@ -920,7 +927,9 @@ def diagnose(
             # no joint refit across domains: the nonlinear or cross-coupling part is refitted
             # with the project's optimiser on top of the linear part's refitted model
             lin_part = [e for e in pair if e in FREQUENCY_DOMAIN]
-            base = specs[(lin_part[0],)] if lin_part else nom_spec
+            # without a linear part, start where the ranking's time-domain fits did (the
+            # nominal, or a model that simulates where the nominal does not)
+            base = specs[(lin_part[0],)] if lin_part else specs.get((), nom_spec)
             eff = dict(base.effects)
             gain_scale = base.gain_scale
             sigma = {e: ranking[i].sigma.get(e, {}) for i, e in enumerate(pair)}
