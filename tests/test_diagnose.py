@@ -612,6 +612,7 @@ def test_time_delay_case_is_found_and_estimated(delay_case):
     # the summary quotes the delay and its (often sub-millisecond) bound to 0.1 ms
     ms, sig_ms = 1e3 * top.params["time_delay"]["delay_s"], 1e3 * top.sigma["time_delay"]["delay_s"]
     assert f"time_delay = {ms:.1f} ms (+-{sig_ms:.1f})" in d.summary()
+    assert "counts random error only" not in d.summary()  # no structure finding: the model form is the plant's
 
 
 def test_no_effect_case_answers_none():
@@ -674,6 +675,7 @@ def test_structure_hidden_behind_a_long_delay_is_found():
     doc = json.loads(json.dumps(d.to_json()))
     assert doc["structure"]["detail"]["found_behind_time_delay"] == 1.0
     assert "shows only on top of a time delay" in d.summary()
+    assert "counts random error only" in d.summary()  # the bound ignores the extra mode's model-form error
 
 
 def test_a_nominal_that_does_not_simulate_still_gets_finite_time_domain_tests():

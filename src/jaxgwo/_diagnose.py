@@ -365,6 +365,13 @@ class Diagnosis:
                     else:
                         parts.append(f"{e} {p} = {v:.3g} (+-{s:.2g})")
             lines.append(f"Most likely cause: {', '.join(parts)}.")
+            if self.structure is not None:
+                # blind-study R-50 delays: 0-13.5 ms low against bounds of 1.2-2.6 ms
+                lines.append(
+                    "The +- counts random error only: fitted on top of that extra pole pair, an approximation "
+                    "of the airframe, the parameters also carry its model-form error, which can be several "
+                    "times larger (README, 'What limits it')."
+                )
             lines.append(
                 f"Adding it closes {100 * top.gap_closed:.0f} % of the held-out R^2 gap "
                 + ("left by the paper model with that mode " if self.structure is not None else "")
