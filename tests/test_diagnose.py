@@ -941,6 +941,27 @@ def test_structure_step_starts_only_from_a_frequency_domain_winner():
     assert _structure_route([], fits, 1.0) is None
 
 
+def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing_fit_for_it():
+    from jaxgwo._diagnose import _takes_time_domain_path
+
+    def j(ok, p=1e-6, dbic=-50.0):
+        return dataclasses.replace(_scored("structural_mode", 1.0, ok), train_p=p, delta_bic=dbic)
+
+    td_pass, td_fail = _scored("structural_mode", 0.8, True), _scored("structural_mode", -9.0, False)
+    # J found no linear effect: a refit that passes decides (the rule before)
+    assert _takes_time_domain_path(j(False, p=0.02), td_pass, j_found=False, alpha=1e-3)
+    # J finds this effect, its fit fails on VAL, the refit passes: two tests agree (seed-61 case_066)
+    assert _takes_time_domain_path(j(False), td_pass, j_found=True, alpha=1e-3)
+    # ... not when J's own evidence is short of the level or of a BIC gain
+    assert not _takes_time_domain_path(j(False, p=0.02), td_pass, j_found=True, alpha=1e-3)
+    assert not _takes_time_domain_path(j(False, dbic=3.0), td_pass, j_found=True, alpha=1e-3)
+    # a J fit that passes stands; a refit that fails, or none, never stands in
+    assert not _takes_time_domain_path(j(True), td_pass, j_found=True, alpha=1e-3)
+    assert not _takes_time_domain_path(j(False), td_fail, j_found=True, alpha=1e-3)
+    assert not _takes_time_domain_path(j(False), td_fail, j_found=False, alpha=1e-3)
+    assert not _takes_time_domain_path(j(False), None, j_found=False, alpha=1e-3)
+
+
 @pytest.mark.parametrize("scores, names", [
     # a lag on top names its twin whatever the scores: the two fit the same responses
     ({"sensor_lag": 3.0, "time_delay": 1.0}, ("sensor_lag", "rotor_flapping")),
