@@ -407,6 +407,13 @@ def score(workdir: str, results: dict) -> dict:
     return {"confusion": conf, "rows": rows}
 
 
+def _pct(flags) -> str:
+    """The percentage of true ``flags``, rounded as :func:`_share` rounds it (from the
+    integer count: a float mean such as 0.575 would round 57.5 % the other way)."""
+    flags = list(flags)
+    return f"{100 * sum(bool(f) for f in flags) / len(flags):.0f}"
+
+
 def _share(hits: int, n: int) -> str:
     """``hits`` of ``n`` cases as a percentage with its count; with no cases, says so
     (a ``--classes`` draw may hold no none case or no effect case)."""
@@ -459,13 +466,13 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
     L.append(f"| false alarms on none | {_share(n_fa, len(none_rows))} | 0 % |")
     obs = [r for r in eff_rows if r["observable"]]
     if obs:
-        L.append(f"| top-1 / top-2 over effects the excitation reaches | {100 * np.mean([r['top1'] for r in obs]):.0f} % / "
-                 f"{100 * np.mean([r['top2'] for r in obs]):.0f} % ({len(obs)} cases) | |")  # fmt: skip
+        L.append(f"| top-1 / top-2 over effects the excitation reaches | {_pct(r['top1'] for r in obs)} % / "
+                 f"{_pct(r['top2'] for r in obs)} % ({len(obs)} cases) | |")  # fmt: skip
     idf = [r for r in eff_rows if r["identifiable"]]
     if idf:
         L.append(f"| top-1 / top-2 over identifiable effects (oracle z > {ORACLE_Z:g} on TRAIN and VAL) | "
-                 f"{100 * np.mean([r['top1'] for r in idf]):.0f} % ({sum(r['top1'] for r in idf)}/{len(idf)}) / "
-                 f"{100 * np.mean([r['top2'] for r in idf]):.0f} % ({sum(r['top2'] for r in idf)}/{len(idf)}) | |")  # fmt: skip
+                 f"{_pct(r['top1'] for r in idf)} % ({sum(r['top1'] for r in idf)}/{len(idf)}) / "
+                 f"{_pct(r['top2'] for r in idf)} % ({sum(r['top2'] for r in idf)}/{len(idf)}) | |")  # fmt: skip
     r50_eff = [r for r in eff_rows if r.get("oracle_z_mode") is not None]
     if r50_eff:
         beyond = [r for r in r50_eff if r["identifiable_mode"]]
@@ -493,14 +500,13 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
         pn = [r for r in none_rows if r["plant"] == plant]
         if pr and len(pr) < len(eff_rows):
             L.append(f"| on {plant} plants: top-1 / top-2 over effects, false alarms on none | "
-                     f"{100 * np.mean([r['top1'] for r in pr]):.0f} % / {100 * np.mean([r['top2'] for r in pr]):.0f} % "
+                     f"{_pct(r['top1'] for r in pr)} % / {_pct(r['top2'] for r in pr)} % "
                      f"({len(pr)} cases), {sum(r['verdict'] != 'none' for r in pn)}/{len(pn)} | |")  # fmt: skip
     st = {pl: (sum(r["structure_hz"] is not None for r in rows if r["plant"] == pl), sum(r["plant"] == pl for r in rows))
           for pl in ("paper", "r50")}  # fmt: skip
     L.append(f"| structure findings (an extra pole pair kept, the effects ranked on top of it) | "
              f"paper {st['paper'][0]}/{st['paper'][1]}, R-50 {st['r50'][0]}/{st['r50'][1]} | |")  # fmt: skip
-    overall = np.mean([r["top1"] for r in rows])
-    L.append(f"| top-1 over all cases incl. none | {100 * overall:.0f} % | |")
+    L.append(f"| top-1 over all cases incl. none | {_pct(r['top1'] for r in rows)} % | |")
     L.append("")
     L.append("## Confusion matrix (rows: truth, columns: verdict)")
     L.append("")
