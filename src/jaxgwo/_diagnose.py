@@ -591,6 +591,10 @@ def _time_pairs(records: Sequence[FlightRecord], channel: str, settings: Identif
     return out
 
 
+_DELAY_GRID_S = np.arange(0.0, _Z_HI[0] + 1e-9, 0.005)
+"""Trial delays (s) of the delay-aware WLS start: every 5 ms across the delay's search box."""
+
+
 #: the stages :func:`diagnose` reports to its ``progress`` callback, in order (the fourth
 #: runs only when a structure finding asks for the effects to be ranked again)
 DIAGNOSE_STAGES = ("nominal", "where", "which", "which, on top of the extra mode", "how far")
@@ -712,7 +716,7 @@ def diagnose(
             # a long delay can throw the delay-free nominal fit (and the refit searched around
             # it) far off, even to the wrong gain sign: refit from a delay-aware start as well
             i_td = [f.effects for f in lin].index(("time_delay",))
-            ds = delay_aware_start(prep.response, prep.objective, prep.sign, np.arange(0.0, _Z_HI[0] + 1e-9, 0.005),
+            ds = delay_aware_start(prep.response, prep.objective, prep.sign, _DELAY_GRID_S,
                                    ids.sk_iterations)  # fmt: skip
             if ds is not None and ds.cost_J < lin[i_td].cost_J:
                 obj = prep.objective if ds.sign == prep.sign else _flipped_objective(prep.objective)
@@ -746,8 +750,8 @@ def diagnose(
                 # WLS start stands in for them.
                 alts = [ModelSpec(np.exp(f.x[:5]) * lin_from[f.effects][3]) for f in lin]
                 if not alts:
-                    ds = delay_aware_start(prep.response, prep.objective, prep.sign,
-                                           np.arange(0.0, _Z_HI[0] + 1e-9, 0.005), ids.sk_iterations)  # fmt: skip
+                    ds = delay_aware_start(prep.response, prep.objective, prep.sign, _DELAY_GRID_S,
+                                           ids.sk_iterations)  # fmt: skip
                     alts = [] if ds is None else [ModelSpec(np.exp(ds.x) * np.array([ds.sign, 1, 1, 1, 1]))]
                 errs = [_train_mse(a, tt) for a in alts]  # inf where it does not simulate
                 if any(math.isfinite(e) for e in errs):
