@@ -962,6 +962,20 @@ def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing
     assert not _takes_time_domain_path(j(False), None, j_found=False, alpha=1e-3)
 
 
+@pytest.mark.parametrize("cut, corroborated, dbic_val, passes", [
+    (1.06, False, 5.0, True),  # the identification error cut alone is effect size enough
+    (1.039, False, -442.0, True),  # seed-61 case_071: sweeps seldom reach the limit, VAL often
+    (1.03, False, 3.2, False),  # a cut under x1.05 that the held-out BIC does not back
+    (1.03, False, 0.0, False),  # no held-out gain is no held-out effect
+    (1.01, True, 20.0, True),  # the amplitude test corroborates (its own, weaker level)
+])  # fmt: skip
+def test_a_small_nonlinear_error_cut_counts_only_with_an_effect_size_from_elsewhere(cut, corroborated, dbic_val,
+                                                                                    passes):  # fmt: skip
+    from jaxgwo._diagnose import DiagnoseSettings, _effect_size_passes
+
+    assert _effect_size_passes(cut, DiagnoseSettings().min_error_ratio, corroborated, dbic_val) is passes
+
+
 @pytest.mark.parametrize("scores, names", [
     # a lag on top names its twin whatever the scores: the two fit the same responses
     ({"sensor_lag": 3.0, "time_delay": 1.0}, ("sensor_lag", "rotor_flapping")),
