@@ -976,6 +976,34 @@ def test_a_small_nonlinear_error_cut_counts_only_with_an_effect_size_from_elsewh
     assert _effect_size_passes(cut, DiagnoseSettings().min_error_ratio, corroborated, dbic_val) is passes
 
 
+def test_a_gyro_filter_is_estimated_by_its_output_error_refit_and_decided_by_j():
+    from jaxgwo._diagnose import _output_error_estimate
+
+    def cand(effect, value, ok, r2, gap, pred, p=1e-9, z=3.0, score=1.2):
+        name = {"sensor_lag": "cutoff_hz", "time_delay": "delay_s"}[effect]
+        return dataclasses.replace(_scored(effect, score, ok), params={effect: {name: value}},
+                                   sigma={effect: {name: 0.1 * value}}, val_r2=r2, val_tic=1.0 - r2, gap_closed=gap,
+                                   train_p=p, z_score=z, predicted=(pred,))  # fmt: skip
+
+    j = cand("sensor_lag", 25.0, True, 0.990, 0.5, "j")
+    td = cand("sensor_lag", 36.0, False, 0.995, 0.8, "td", p=0.2, z=0.5, score=-9.0)
+    out = _output_error_estimate(j, (td, None))
+    # the refit's model: its parameters, bound, held-out scores and prediction ...
+    assert out.params == td.params and out.sigma == td.sigma and out.predicted == ("td",)
+    assert (out.val_r2, out.val_tic, out.gap_closed) == (0.995, td.val_tic, 0.8)
+    # ... J's decision: its evidence and score stay, and its estimate is kept beside
+    assert out.beats_noise and (out.score, out.train_p, out.z_score) == (1.2, 1e-9, 3.0)
+    assert out.detail == {"j_cutoff_hz": 25.0, "estimate_output_error": 1.0}
+    # the J fit stands: no refit, a refit stopped at the box's 100 Hz (no filter), one
+    # that stood in on the time-domain path already, and the effects inside the band
+    assert _output_error_estimate(j, None) is j
+    assert _output_error_estimate(j, (cand("sensor_lag", 100.0, False, 0.995, 0.8, "td"), None)) is j
+    on_path = dataclasses.replace(j, detail={"time_domain_path": 1.0})
+    assert _output_error_estimate(on_path, (td, None)) is on_path
+    delay = cand("time_delay", 0.03, True, 0.99, 0.5, "j")
+    assert _output_error_estimate(delay, (cand("time_delay", 0.031, True, 0.995, 0.8, "td"), None)) is delay
+
+
 @pytest.mark.parametrize("scores, names", [
     # a lag on top names its twin whatever the scores: the two fit the same responses
     ({"sensor_lag": 3.0, "time_delay": 1.0}, ("sensor_lag", "rotor_flapping")),
