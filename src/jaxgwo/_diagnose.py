@@ -569,7 +569,9 @@ def _output_error_estimate(sc: CandidateScore, refit: tuple | None) -> Candidate
     acts mostly above it: ``J`` sees only its phase lag, which the refitted servo shares.
     The refit (servo and rotor term with the effect, Gauss-Newton from the ``J`` fit and
     from the null refit, :func:`refit_linear_time_domain`) fits the time histories up to
-    Nyquist.  On the paper-plant gyro filters of development seeds 61 and 89 it moved the
+    Nyquist.  The band is not the whole reason (seed-61 case_008: a sweep to 15.4 Hz, and
+    ``J`` read 25.0 Hz for 36.4, the refit 36.1); the choice rests on what was measured.
+    On the paper-plant gyro filters of development seeds 61 and 89 it moved the
     cutoff closer to the truth in 10 of 11 (median error 25 -> 7 %, within 15 % in 4 -> 8)
     and raised the held-out R^2 of 29 of the 30 ``sensor_lag`` candidates that beat noise
     there.  The other linear effects lie inside the band, and there the refit was no
