@@ -1002,8 +1002,8 @@ def diagnose(
         base_s = _Base(sm_spec, ("structural_mode",), (obj_s, f_sm.x[:5], f_sm.x[5:], sv_s), f_sm.cost_J,
                        sim_J(sm_spec), list(structure.predicted), structure.val_r2)  # fmt: skip
         k_lin_s, k_nl_s = jax.random.split(jax.random.fold_in(key, 1))
-        scored, specs, fits, lin_from, _oe = rank(base_s, [c for c in cands if c != "structural_mode"], k_lin_s, k_nl_s, 3,
-                                             "which, on top of the extra mode", prior=prior)  # fmt: skip
+        scored, specs, fits, lin_from, _oe = rank(base_s, [c for c in cands if c != "structural_mode"], k_lin_s,
+                                                  k_nl_s, 3, "which, on top of the extra mode", prior=prior)  # fmt: skip
         ranking = tuple(sorted(scored, key=_best_first))  # no lag_over_delay on top of the mode: see its docstring
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
     if structure is None:
