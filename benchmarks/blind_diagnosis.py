@@ -407,17 +407,22 @@ def score(workdir: str, results: dict) -> dict:
     return {"confusion": conf, "rows": rows}
 
 
+def _percent(hits: int, n: int) -> str:
+    """``hits`` of ``n`` as a whole percentage, from the integer count (a float mean such as
+    0.575 would round 57.5 % the other way)."""
+    return f"{100 * hits / n:.0f}"
+
+
 def _pct(flags) -> str:
-    """The percentage of true ``flags``, rounded as :func:`_share` rounds it (from the
-    integer count: a float mean such as 0.575 would round 57.5 % the other way)."""
+    """The percentage of true ``flags`` (:func:`_percent`)."""
     flags = list(flags)
-    return f"{100 * sum(bool(f) for f in flags) / len(flags):.0f}"
+    return _percent(sum(bool(f) for f in flags), len(flags))
 
 
 def _share(hits: int, n: int) -> str:
     """``hits`` of ``n`` cases as a percentage with its count; with no cases, says so
     (a ``--classes`` draw may hold no none case or no effect case)."""
-    return f"{100 * hits / n:.0f} % ({hits}/{n})" if n else "no cases"
+    return f"{_percent(hits, n)} % ({hits}/{n})" if n else "no cases"
 
 
 def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
