@@ -41,7 +41,7 @@ from ._diagnose_where import (
     residual_tests,
 )
 from ._diagnose_which import (
-    _FLAP_NEGLIGIBLE_S,
+    _FLAP_LO_TIME_DOMAIN_S,
     _Z_HI,
     _Z_HI_STRUCTURE,
     _Z_NEUTRAL,
@@ -596,6 +596,14 @@ def _output_error_estimate(sc: CandidateScore, refit: tuple | None) -> Candidate
                                detail=det)  # fmt: skip
 
 
+def _output_error_start(z: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """A start of :func:`refit_linear_time_domain` (its ``LinearOutputError`` coordinates:
+    the six effect coordinates ``z``, then log servo frequency and damping, log ``tau`` and
+    ``M``) from a frequency-domain fit's ``x`` (log ``K``, ``tau``, ``M``, servo frequency
+    and damping, then its effect coordinates)."""
+    return np.r_[z, x[3], x[4], x[1], x[2]]
+
+
 def _vanished(effect: str, params: dict) -> bool:
     """Whether a time-domain refit stopped on the side of its search box where ``effect``
     vanishes (:data:`_Z_NEUTRAL`): no delay, a gyro filter at the box's 100 Hz, the least
@@ -606,7 +614,7 @@ def _vanished(effect: str, params: dict) -> bool:
     if effect == "sensor_lag":
         return math.log(params["cutoff_hz"]) >= _Z_NEUTRAL[1] - 1e-6
     if effect == "rotor_flapping":
-        return params["tau_f"] <= 2.0 * _FLAP_NEGLIGIBLE_S * (1.0 + 1e-6)
+        return params["tau_f"] <= _FLAP_LO_TIME_DOMAIN_S * (1.0 + 1e-6)
     return False
 
 
@@ -759,8 +767,9 @@ def diagnose(
                                        fs, np.asarray(resp.w), prep.sign, ids)  # fmt: skip
 
     def score(base: _Base, effects, params, sigma, spec, cost, J0, n_params, baseline=None, extra_p=None, j_required=True,
-              evidence=None, time_domain=False, alpha=None, confirm=True):
-        pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv]
+              evidence=None, time_domain=False, alpha=None, confirm=True, predicted=None):
+        """``predicted``: ``spec``'s held-out simulation where it is at hand already."""
+        pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv] if predicted is None else list(predicted)
         ag = float(np.mean([_agreement(e, fm, amp, off_rt, params.get(e)) for e in effects]))
         return score_candidate(tuple(effects), params, sigma, pred, val_meas, base.val_predicted, base.val_r2, cost, J0,
                                m_eff, n_params, tc, dt, ag, baseline_predicted=baseline, extra_train_p=extra_p,
@@ -865,7 +874,7 @@ def diagnose(
             # alone it cut a seed-31 R-50 none case's error by x1.05 with a "lag" at 100 Hz).
             nul = null.refit
             z = np.where(_active_mask(base.linear), seed0, f.x[5:]) if base.linear else f.x[5:]
-            x_j = np.r_[z, f.x[3], f.x[4], f.x[1], f.x[2]]
+            x_j = _output_error_start(z, f.x)
             x_n = np.r_[z, np.log([nul["omega_s"], nul["zeta_s"], nul["tau"], nul["M"]])]
             tdf = refit_linear_time_domain(td_base, tt, f.effects, [x_j, x_n], tc_tr, held=base.linear)
             if tdf is None:  # no start simulates: the J verdict stands alone
@@ -929,7 +938,7 @@ def diagnose(
                                             sc.delta_bic_val)  # fmt: skip
                 if not sized:  # significant perhaps, but too small an effect to trust
                     sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_null,
-                               extra_p=1.0, **kw)  # fmt: skip
+                               extra_p=1.0, predicted=sc.predicted, **kw)  # fmt: skip
                 det = {"train_mse": f.train_mse, "null_train_mse": null.train_mse, "n_eff_train": n_nl,
                        "train_corr_time_s": tc_tr, "p_val_tc": f_test_p(null.train_mse, f.train_mse, 1, n_train_eff - 4),
                        "p_output_error": f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4),
@@ -1040,7 +1049,7 @@ def diagnose(
             # with a gyro filter, estimated as it is alone: the pair's output-error refit from its J fit
             td_base = specs.get((), nom_spec)
             tdf = None if "sensor_lag" not in pair else refit_linear_time_domain(
-                td_base, tt, pair, [np.r_[f.x[5:], f.x[3], f.x[4], f.x[1], f.x[2]]], tc)  # fmt: skip
+                td_base, tt, pair, [_output_error_start(f.x[5:], f.x)], tc)  # fmt: skip
             if tdf is not None:
                 td_spec = tdf.spec(td_base)
                 sc_td = score(base0, pair, tdf.params, tdf.sigma, td_spec, math.nan, base0.cost_J_sim, k2)

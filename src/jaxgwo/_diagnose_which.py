@@ -517,6 +517,9 @@ def _post_filter(effects) -> tuple[np.ndarray, np.ndarray]:
 
 _FLAP_NEGLIGIBLE_S = 1e-4
 """Below 0.1 ms a flapping lag is negligible and its cubic ill-conditioned: the quadratic is used."""
+_FLAP_LO_TIME_DOMAIN_S = 2.0 * _FLAP_NEGLIGIBLE_S
+"""The least flapping lag of :func:`refit_linear_time_domain`'s box: at zero the cubic's lead
+coefficient degenerates its realisation."""
 
 
 def _rotor_den(tau, m, tau_f):
@@ -726,8 +729,8 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     own = act & ~_active_mask(held)
     free = np.r_[np.flatnonzero(own), np.arange(6, 10)]
     z_lo = np.where(act, _Z_LO, _Z_NEUTRAL)
-    if act[2]:  # the cubic's lead coefficient: at zero the realisation degenerates
-        z_lo[2] = 2.0 * _FLAP_NEGLIGIBLE_S
+    if act[2]:
+        z_lo[2] = _FLAP_LO_TIME_DOMAIN_S
     z_hi = np.where(act, _Z_HI_STRUCTURE, _Z_NEUTRAL + 1e-9)
     best, e_best, jac_best = None, math.inf, None
     for x0 in starts:
