@@ -462,15 +462,25 @@ def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substep
     """Swashplate position mid-way through each sample interval of a second-order servo with
     rate limit, saturation and backlash (the simulator's rules, :mod:`jaxgwo._simulate`), driven
     by the held input ``u``.  Mid-interval samples make the following ZOH rotor simulation
-    free of a half-sample lag."""
+    free of a half-sample lag.
+
+    The simulator stops the velocity state at the rate limit and the position at the end
+    stop by switching their derivatives to zero.  Here each stop is approached at the rate
+    ``1/h`` of the RK4 step ``h`` instead (the derivative clipped to ``(stop - state) / h``),
+    which is continuous in the state: with switching, the output error jumps wherever
+    a sample's RK4 stage crosses a stop, and central-difference gradients across a jump
+    are wrong (by 1.5 times the largest component on the embedded dataset's rate limit).
+    It also follows the switching stops integrated 50 times finer more closely
+    (0.13-0.19 % rms against 0.37-0.49 % for switching at this step; tests)."""
     h = dt / substeps
+    stop = 1.0 / h  # how fast a stop is approached, 1/s (see the docstring)
 
     def deriv(state, cmd):
         pos, vel = state
         acc = sp.omega**2 * (cmd - pos) - 2.0 * sp.zeta * sp.omega * vel
-        acc = jnp.where(((vel >= sp.rate) & (acc > 0.0)) | ((vel <= -sp.rate) & (acc < 0.0)), 0.0, acc)
+        acc = jnp.clip(acc, stop * (-sp.rate - vel), stop * (sp.rate - vel))
         v_out = jnp.clip(vel, -sp.rate, sp.rate)
-        d_pos = jnp.where(((pos >= sp.limit) & (v_out > 0.0)) | ((pos <= -sp.limit) & (v_out < 0.0)), 0.0, v_out)
+        d_pos = jnp.clip(v_out, stop * (-sp.limit - pos), stop * (sp.limit - pos))
         return jnp.stack([d_pos, acc])
 
     def sub(carry, cmd):
