@@ -162,6 +162,13 @@ def test_help_texts(capsys):
     ident = _help(["identify", "--help"], capsys)
     assert "--export FILE" in ident and "--report OUT.html" in ident
     assert "(default: wls-igwo+polish)" in ident and "lateral_num" in ident
+    # diagnose's help states the defaults it runs (DiagnoseSettings(), not the parser's None)
+    from jaxgwo._diagnose import DiagnoseSettings
+
+    ds = DiagnoseSettings()
+    diag = " ".join(_help(["diagnose", "--help"], capsys).split())
+    assert f"(default {ds.wolves}:" in diag and f"(default {ds.iterations}," in diag
+    assert f"(default: {ds.identify.w_max:g})" in diag or f"(default: {ds.identify.w_max})" in diag
 
 
 def test_only_the_console_script_freezes_the_heap(tmp_path):
