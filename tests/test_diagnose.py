@@ -1012,7 +1012,11 @@ def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing
     def j(ok, p=1e-6, dbic=-50.0):
         return dataclasses.replace(_scored("structural_mode", 1.0, ok), train_p=p, delta_bic=dbic)
 
-    td_pass, td_fail = _scored("structural_mode", 0.8, True), _scored("structural_mode", -9.0, False)
+    def td_mode(zeta_z, ok=True):
+        c = _scored("structural_mode", 0.8 if ok else -9.0, ok)
+        return dataclasses.replace(c, params={"structural_mode": {"freq_hz": 4.9, "zeta_p": 0.44, "zeta_z": zeta_z}})
+
+    td_pass, td_fail = td_mode(0.2), td_mode(0.2, ok=False)
     # J found no linear effect: a refit that passes decides (the rule before)
     assert _takes_time_domain_path(j(False, p=0.02), td_pass, j_found=False, alpha=1e-3)
     # J finds this effect, its fit fails on VAL, the refit passes: two tests agree (seed-61 case_066)
@@ -1025,6 +1029,14 @@ def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing
     assert not _takes_time_domain_path(j(False), td_fail, j_found=True, alpha=1e-3)
     assert not _takes_time_domain_path(j(False), td_fail, j_found=False, alpha=1e-3)
     assert not _takes_time_domain_path(j(False), None, j_found=False, alpha=1e-3)
+    # a mode refit with real zeros (zero damping above structure_zeta_z) is no resonance:
+    # it never stands in (seed-89 case_064); one with complex zeros does, as before
+    for found in (False, True):
+        assert not _takes_time_domain_path(j(False), td_mode(8.4), j_found=found, alpha=1e-3, structure_zeta_z=1.0)
+        assert _takes_time_domain_path(j(False), td_mode(0.2), j_found=found, alpha=1e-3, structure_zeta_z=1.0)
+    assert _takes_time_domain_path(j(False), td_mode(8.4), j_found=True, alpha=1e-3)  # the rule off (inf)
+    lag = dataclasses.replace(_scored("sensor_lag", 0.8, True), params={"sensor_lag": {"cutoff_hz": 20.0}})
+    assert _takes_time_domain_path(j(False), lag, j_found=True, alpha=1e-3, structure_zeta_z=1.0)
 
 
 @pytest.mark.parametrize("cut, corroborated, dbic_val, passes", [

@@ -523,7 +523,8 @@ class _Base:
     val_r2: float
 
 
-def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_found: bool, alpha: float) -> bool:
+def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_found: bool, alpha: float,
+                            structure_zeta_z: float = math.inf) -> bool:
     """Whether a linear candidate is scored by its time-domain refit (``sc_td``) instead of
     its ``J`` fit (``sc``).  Only a refit that passes on its own (output-error F-test,
     confirmed on VAL against the null refit) may stand in, and only where ``J`` found no
@@ -533,8 +534,18 @@ def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_
     held-out records are time histories (seed-61 case_066, an 8.2 Hz mode at damping 0.07:
     the ``J`` fit lands on it, 8.25 Hz at ``J`` 36.4 -> 2.6, yet lowers the held-out R^2
     0.9955 -> 0.9951; refitted by output error it raises it to 0.9982, where a lag that
-    fits ``J`` far worse, 23.6, had been the verdict).  A ``J`` fit that passes stands."""
+    fits ``J`` far worse, 23.6, had been the verdict).  A ``J`` fit that passes stands.
+
+    A ``structural_mode`` refit whose zero damping exceeds ``structure_zeta_z`` (real
+    zeros) never stands in: it describes no resonance of the vocabulary but a broad
+    pole-zero pair, which is structure where ``J`` finds it (:func:`_structure_route`)
+    and, found by output error alone, is no evidence for the effect (seed-89 case_064, a
+    24.7 Hz gyro filter that ``J`` fitted at 25.8 Hz: the refit's 4.9 Hz pair with zero
+    damping 8.4, zeros at 0.29 and 81 Hz, bent the lag into a lead-lag and was the
+    verdict)."""
     if sc_td is None or not sc_td.beats_noise or sc.beats_noise:
+        return False
+    if sc_td.effects[-1:] == ("structural_mode",) and sc_td.params["structural_mode"]["zeta_z"] > structure_zeta_z:
         return False
     return not j_found or (sc.train_p < alpha and sc.delta_bic < 0.0)
 
@@ -893,7 +904,7 @@ def diagnose(
             lin_scores.append((own, sc, sc_td, td_spec, det))
         j_found = any(sc.beats_noise for _o, sc, *_r in lin_scores)
         for own, sc, sc_td, td_spec, det in lin_scores:
-            if _takes_time_domain_path(sc, sc_td, j_found, settings.alpha):
+            if _takes_time_domain_path(sc, sc_td, j_found, settings.alpha, settings.structure_zeta_z):
                 sc, specs[own] = sc_td, td_spec
                 det["time_domain_path"] = 1.0
             elif sc_td is not None:
