@@ -170,8 +170,10 @@ class DiagnoseSettings:
     When the top candidate is a ``time_delay`` instead, a ``structural_mode`` is fitted on
     top of the delay; one that beats noise against the delay alone, with zero damping
     above this threshold, is a structure finding as well (marked
-    ``found_behind_time_delay``: a long delay takes the top place from it).
-    ``inf`` switches both off.  Set from the blind study's seed-23 cases: on every R-50
+    ``found_behind_time_delay``: a long delay takes the top place from it).  An
+    output-error refit of a ``structural_mode`` with zero damping above it never stands in
+    for the mode's ``J`` fit (:func:`_takes_time_domain_path`).
+    ``inf`` switches all three off.  Set from the blind study's seed-23 cases: on every R-50
     plant where a structural_mode beat noise (18 of 21) it fitted zero damping 1.5 (the
     search box's top); the two true structural modes it found fitted 0.19 and 0.33.
     ``lag_over_delay``: when the best candidate is a ``time_delay`` and a lag
