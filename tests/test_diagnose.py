@@ -17,6 +17,7 @@ from jaxgwo._diagnose import DIAGNOSE_STAGES, DiagnoseSettings, diagnose
 from jaxgwo._diagnose_where import amplitude_dependence, bands_from_flags, frequency_mismatch, residual_tests
 from jaxgwo._effects import EffectSet, time_delay_response
 from jaxgwo._identify import IdentifySettings
+from jaxgwo._metrics import rms_error
 from jaxgwo._models import PaperModel
 from jaxgwo._plants import PaperPlant
 from jaxgwo._signals import doublet, frequency_sweep, multistep_3211, pilot_corrections
@@ -449,8 +450,9 @@ def test_nonlinear_servo_against_a_fine_step_reference_of_the_simulators_stops(r
     got = np.asarray(_nonlinear_servo(sp, jnp.asarray(u), 1.0 / FS))
     ref = _hard_stop_servo(u, 40.0, 0.6, rate, limit)
     free = _hard_stop_servo(u, 40.0, 0.6, math.inf, math.inf, substeps=4)
-    assert np.sqrt(np.mean((ref - free) ** 2)) > 0.05 * np.sqrt(np.mean(ref**2))  # the stops act
-    assert np.sqrt(np.mean((got - ref) ** 2)) < 3e-3 * np.sqrt(np.mean(ref**2))
+    size = float(rms_error(ref, 0.0 * ref))
+    assert float(rms_error(ref, free)) > 0.05 * size  # the stops act
+    assert float(rms_error(got, ref)) < 3e-3 * size
 
 
 @pytest.mark.parametrize("effect, value", [("rate_limit", 1.0), ("rate_limit", 2.0), ("saturation", 0.09)])
@@ -478,9 +480,9 @@ def test_model_with_a_servo_nonlinearity_follows_the_simulator(effect, value):
     tt, uu, _o, y = run(EffectSet().with_effect(effect, **{name: value}))
     *_r, y_free = run(EffectSet())
     model = simulate_model(ModelSpec(np.asarray(plant.lateral), {effect: {name: value}}), tt, uu)
-    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
-    assert rms(y - y_free) > 0.05 * rms(y)  # the nonlinearity acts
-    assert rms(model - y) < 4e-3 * rms(y)
+    size = float(rms_error(y, 0.0 * y))
+    assert float(rms_error(y, y_free)) > 0.05 * size  # the nonlinearity acts
+    assert float(rms_error(model, y)) < 4e-3 * size
 
 
 @pytest.mark.parametrize("effect", ["rate_limit", "saturation"])
