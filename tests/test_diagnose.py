@@ -1067,9 +1067,9 @@ def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing
     def j(ok, p=1e-6, dbic=-50.0):
         return dataclasses.replace(_scored("structural_mode", 1.0, ok), train_p=p, delta_bic=dbic)
 
-    def td_mode(zeta_z, ok=True):
+    def td_mode(zeta_z, ok=True, zeta_p=0.05, freq_hz=12.0):
         c = _scored("structural_mode", 0.8 if ok else -9.0, ok)
-        return dataclasses.replace(c, params={"structural_mode": {"freq_hz": 4.9, "zeta_p": 0.44, "zeta_z": zeta_z}})
+        return dataclasses.replace(c, params={"structural_mode": {"freq_hz": freq_hz, "zeta_p": zeta_p, "zeta_z": zeta_z}})
 
     td_pass, td_fail = td_mode(0.2), td_mode(0.2, ok=False)
     # J found no linear effect: a refit that passes decides (the rule before)
@@ -1090,6 +1090,16 @@ def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing
         assert not _takes_time_domain_path(j(False), td_mode(8.4), j_found=found, alpha=1e-3, structure_zeta_z=1.0)
         assert _takes_time_domain_path(j(False), td_mode(0.2), j_found=found, alpha=1e-3, structure_zeta_z=1.0)
     assert _takes_time_domain_path(j(False), td_mode(8.4), j_found=True, alpha=1e-3)  # the rule off (inf)
+    # a broad pole pair is no resonance either, whatever its zeros: the 45 Hz corner fit
+    # (pole damping 0.99) and the 4.9 Hz one (0.44) of seed-89 case_064 never stand in;
+    # the true modes' refits (0.026-0.073) do
+    for found in (False, True):
+        for zeta_p, zeta_z, f in ((0.99, 0.02, 45.0), (0.44, 0.2, 4.9), (0.21, 0.2, 12.0)):
+            assert not _takes_time_domain_path(j(False), td_mode(zeta_z, zeta_p=zeta_p, freq_hz=f), j_found=found,
+                                               alpha=1e-3, structure_zeta_z=1.0)
+        for zeta_p in (0.026, 0.073, 0.2):
+            assert _takes_time_domain_path(j(False), td_mode(0.2, zeta_p=zeta_p), j_found=found, alpha=1e-3,
+                                           structure_zeta_z=1.0)
     lag = dataclasses.replace(_scored("sensor_lag", 0.8, True), params={"sensor_lag": {"cutoff_hz": 20.0}})
     assert _takes_time_domain_path(j(False), lag, j_found=True, alpha=1e-3, structure_zeta_z=1.0)
 
