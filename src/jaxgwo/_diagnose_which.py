@@ -707,7 +707,8 @@ class LinearOutputError(eqx.Module):
 
 
 def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], starts: Sequence[np.ndarray],
-                             correlation_time_s: float = 0.1, held: Sequence[str] = ()) -> TimeFit | None:
+                             correlation_time_s: float = 0.1, held: Sequence[str] = (),
+                             screened: Sequence[np.ndarray] = ()) -> TimeFit | None:
     r"""Refit the paper model with the linear effects ``names`` (the base's own, such as a
     structure finding's mode, among them: those in ``held`` keep the starts' values, as
     the null refit keeps them) by output error on the identification records
@@ -715,7 +716,9 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     (``scipy.optimize.least_squares`` with JAX's forward-mode Jacobian) from each of
     ``starts`` (``x`` of that class: typically the frequency-domain refit, and its effect
     on the null refit's servo and rotor term), the best kept.  The servo and rotor may
-    move a factor 4 from each start.
+    move a factor 4 from each start.  Of the further starts ``screened`` only the one with
+    the smallest output error is refined (one simulation each instead of a Gauss-Newton
+    run).
 
     This is the time-domain check of a linear candidate fitted on ``J``: against the
     null refit by output error (:func:`fit_nonlinear_candidates`) its evidence is the same
@@ -743,6 +746,10 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
         z_lo[2] = _FLAP_LO_TIME_DOMAIN_S
     z_hi = np.where(act, _Z_HI_STRUCTURE, _Z_NEUTRAL + 1e-9)
     best, e_best, jac_best = None, math.inf, None
+    starts = list(starts)
+    if len(screened):
+        errors = [_nl_mse(obj, np.asarray(x, float)) for x in screened]
+        starts.append(screened[int(np.argmin(np.where(np.isfinite(errors), errors, np.inf)))])
     for x0 in starts:
         x0 = np.asarray(x0, float)
         lo, hi = np.r_[z_lo, x0[6:] - math.log(4.0)], np.r_[z_hi, x0[6:] + math.log(4.0)]
