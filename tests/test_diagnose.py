@@ -662,7 +662,7 @@ def test_time_domain_mode_check_finds_a_mode_its_j_start_misses():
     base = ModelSpec(MODEL.to_array())
     alone = refit_linear_time_domain(base, tt, ("structural_mode",), [j_start])
     both = refit_linear_time_domain(base, tt, ("structural_mode",), [j_start],
-                                    screened=_time_domain_mode_starts(z, j_start))
+                                    screened=_time_domain_mode_starts(j_start))
     assert abs(alone.params["structural_mode"]["freq_hz"] / 9.0 - 1.0) > 0.1
     assert abs(both.params["structural_mode"]["freq_hz"] / 9.0 - 1.0) < 0.02
     assert both.train_mse < alone.train_mse

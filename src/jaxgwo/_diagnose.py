@@ -629,10 +629,10 @@ _TD_MODE_STARTS = tuple((float(f), 0.05, 0.15) for f in np.geomspace(8.0, 30.0, 
 beside the ``J`` fit's: lightly damped, 8-30 Hz."""
 
 
-def _time_domain_mode_starts(z: np.ndarray, x_null: np.ndarray) -> list[np.ndarray]:
+def _time_domain_mode_starts(x_null: np.ndarray) -> list[np.ndarray]:
     """Starts of the output-error refit of a ``structural_mode`` besides its ``J`` fit's: the
-    mode at each of :data:`_TD_MODE_STARTS` on the null refit's servo and rotor term
-    (``x_null``, output-error layout), the other effect coordinates ``z`` kept.  ``J`` drops
+    start ``x_null`` (output-error layout: the effect on the null refit's servo and rotor
+    term) with its mode set to each of :data:`_TD_MODE_STARTS`.  ``J`` drops
     the response's points below the coherence threshold, and gusts put a mode above 10 Hz
     there, so its ``J`` fit (and the refit started from it alone) lands elsewhere although
     the time histories show it (seed-89 case_033: a 16.0 Hz mode at damping 0.038, the
@@ -642,9 +642,9 @@ def _time_domain_mode_starts(z: np.ndarray, x_null: np.ndarray) -> list[np.ndarr
     study's median case 24 % slower (38.9 -> 48.4 s, seed 113) and changed no case there."""
     out = []
     for mode in _TD_MODE_STARTS:
-        z_s = np.array(z, float)
-        z_s[3:6] = np.log(mode)
-        out.append(np.r_[z_s, np.asarray(x_null, float)[6:]])
+        x = np.array(x_null, float)
+        x[3:6] = np.log(mode)
+        out.append(x)
     return out
 
 
@@ -920,7 +920,7 @@ def diagnose(
             z = np.where(_active_mask(base.linear), seed0, f.x[5:]) if base.linear else f.x[5:]
             x_j = _output_error_start(z, f.x)
             x_n = np.r_[z, np.log([nul["omega_s"], nul["zeta_s"], nul["tau"], nul["M"]])]
-            mode_starts = _time_domain_mode_starts(z, x_n) if own == ("structural_mode",) and not base.linear else ()
+            mode_starts = _time_domain_mode_starts(x_n) if own == ("structural_mode",) and not base.linear else ()
             tdf = refit_linear_time_domain(td_base, tt, f.effects, [x_j, x_n], tc_tr, held=base.linear,
                                            screened=mode_starts)  # fmt: skip
             if tdf is None:  # no start simulates: the J verdict stands alone
