@@ -143,6 +143,10 @@ class SimulationResult(eqx.Module):
         servo: servo output position (after rate limit and saturation).
         swashplate: swashplate position (after backlash).
         gust: gust moment (rad/s^2).
+        attitude: logged ``(phi, theta)`` (rad) as an attitude estimator gives it, which
+            integrates the raw gyro: the airframe's attitude plus what a ``structural_mode``
+            adds at the gyro, without the ``sensor_lag`` (a filter on the rate the
+            controller and the log see), plus the estimator's own error (:func:`_attitude_error`).
         sample_rate: Hz.
     """
 
@@ -156,11 +160,13 @@ class SimulationResult(eqx.Module):
     servo: Float[Array, "n 2"]
     swashplate: Float[Array, "n 2"]
     gust: Float[Array, "n 2"]
+    attitude: Float[Array, "n 2"]
     sample_rate: float = eqx.field(static=True)
 
-    def to_record(self, metadata: dict | None = None, *, truth: bool = False) -> FlightRecord:
+    def to_record(self, metadata: dict | None = None, *, truth: bool = False, attitude: bool = False) -> FlightRecord:
         """The logged data as a :class:`FlightRecord` (``time, delta_lat, delta_lon, p, q``).
 
+        With ``attitude=True`` it also logs the estimated attitude ``phi, theta`` (rad).
         With ``truth=True`` it also keeps ``p_true, q_true`` (body rates),
         ``exc_lat, exc_lon`` (excitation) and ``servo_lat, servo_lon`` as extra columns.
         """
@@ -168,6 +174,8 @@ class SimulationResult(eqx.Module):
             "delta_lat": self.command[:, 0], "delta_lon": self.command[:, 1],
             "p": self.rate[:, 0], "q": self.rate[:, 1],
         }  # fmt: skip
+        if attitude:
+            cols |= {"phi": self.attitude[:, 0], "theta": self.attitude[:, 1]}
         if truth:
             cols |= {
                 "p_true": self.body_rate[:, 0], "q_true": self.body_rate[:, 1],
@@ -231,6 +239,14 @@ def _struct_out(x, plant, effects: EffectSet):
     sm = effects.structural_mode
     wn = 2.0 * jnp.pi * sm.freq_hz
     return plant.body_rates(x["plant"]) + 2.0 * (sm.zeta_z - sm.zeta_p) * wn * x["struct2"]
+
+
+def _raw_gyro_attitude(x, plant, effects: EffectSet):
+    """The attitude the raw gyro integrates to: the airframe's plus what the structural mode
+    adds at the gyro (``struct1`` integrates ``struct2``), before any ``sensor_lag``."""
+    sm = effects.structural_mode
+    wn = 2.0 * jnp.pi * sm.freq_hz
+    return plant.attitude(x["plant"]) + 2.0 * (sm.zeta_z - sm.zeta_p) * wn * x["struct1"]
 
 
 def _derivative(x, cmd, white, swash_prev, plant, effects, hold, t_gust, floor):
@@ -329,6 +345,7 @@ def simulate(
             "rate_clean": _measured(x, plant, effects, floor),
             "body_rate": plant.body_rates(x["plant"]),
             "servo": _servo_output(x, effects), "swashplate": swash, "gust": _gust_moment(x),
+            "attitude": _raw_gyro_attitude(x, plant, effects),
         }  # fmt: skip
 
         def substep(j, xs):
@@ -354,6 +371,8 @@ def simulate(
     signal_rms = jnp.sqrt(jnp.mean((clean - jnp.mean(clean, axis=0)) ** 2, axis=0))
     noise_std = jnp.sqrt((signal_rms / 10.0 ** (disturbance.snr_db / 20.0)) ** 2 + disturbance.noise_std**2)
     rate = clean + jax.random.normal(k_noise, (n, 2), dtype=jnp.float64) * noise_std
+    # its own key: the attitude's error leaves every other draw as it was
+    attitude = logged["attitude"] + _attitude_error(jax.random.fold_in(k_noise, 1), n, dt, noise_std)
     return SimulationResult(
         time=jnp.arange(n, dtype=jnp.float64) * dt,
         command=logged["command"],
@@ -365,8 +384,30 @@ def simulate(
         servo=logged["servo"],
         swashplate=logged["swashplate"],
         gust=logged["gust"],
+        attitude=attitude,
         sample_rate=float(sample_rate_hz),
     )
+
+
+ATTITUDE_ESTIMATOR_HZ = 0.1
+"""Corner of the simulated attitude estimator's drift correction (Hz)."""
+
+
+def _attitude_error(key: PRNGKeyArray, n: int, dt: float, rate_noise_std: Float[Array, "2"]) -> Float[Array, "n 2"]:
+    r"""The error of a logged attitude, ``(n, 2)`` rad, as a complementary-filter or EKF
+    estimator makes it: it integrates the raw gyro's delta angles (before any gyro filter)
+    and corrects the drift from the accelerometers below :data:`ATTITUDE_ESTIMATOR_HZ`.
+    Its error is then an independent white rate noise of the gyro's level integrated by
+    :math:`1/(s + \omega_e)`, :math:`e_k = a\,e_{k-1} + dt\,n_k` with
+    :math:`a = e^{-\omega_e dt}`: above the corner its derivative is as noisy as the gyro."""
+    a = math.exp(-2.0 * math.pi * ATTITUDE_ESTIMATOR_HZ * dt)
+    white = jax.random.normal(key, (n, 2), dtype=jnp.float64) * rate_noise_std * dt
+
+    def step(e, w):
+        e = a * e + w
+        return e, e
+
+    return jax.lax.scan(step, jnp.zeros((2,), jnp.float64), white)[1]
 
 
 @eqx.filter_jit
