@@ -47,6 +47,11 @@ CHANNELS: dict[str, tuple[str, str]] = {
 }
 """Channel name -> (input column, output column), as in the paper's eqs. (15)-(16)."""
 
+ATTITUDE_COLUMNS: dict[str, str] = {"lateral": "phi", "longitudinal": "theta"}
+"""Channel name -> the optional column of its logged attitude (rad or deg; an estimator's,
+from the raw gyro).  Where the records have it, ``jaxgwo diagnose`` reads the gyro's own
+filter against it (:func:`jaxgwo._diagnose_where.gyro_path`)."""
+
 UNITS: dict[str, str] = {
     "time": "s",
     "delta_lat": "normalised (dimensionless)",

@@ -23,20 +23,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._data import CHANNELS, FlightRecord
+from ._data import ATTITUDE_COLUMNS, CHANNELS, FlightRecord
 from ._diagnose_where import (
     AmplitudeDependence,
     FrequencyMismatch,
+    GyroPath,
     ResidualTests,
     amplitude_dependence,
     frequency_mismatch,
+    gyro_path,
     noise_limited_bands,
     residual_tests,
 )
@@ -82,8 +84,8 @@ SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the d
         "no cyclic excitation separates them: with the paper parameters refitted, a gyro filter and an in-loop "
         "flapping lag give the same input-output response (each is K over a stable cubic times the "
         "servo), so they differ only in what the gyro sees of disturbances; read the gyro filter's "
-        "cutoff from the autopilot's parameters, or compare with an unfiltered rate or an independent "
-        "attitude measurement"
+        "cutoff from the autopilot's parameters, or log the attitude estimate beside the rate (columns phi, "
+        "theta): the gyro path then tells them apart"
     ),
     frozenset({"time_delay", "sensor_lag"}): (
         "to separate them: a delay keeps the magnitude flat while a gyro filter rolls it off: extend the sweep above the "
@@ -261,6 +263,8 @@ class Diagnosis:
     built on, or ``None`` (:class:`DiagnoseSettings`, ``structure_zeta_z``)."""
     paper_ranking: tuple[CandidateScore, ...] = field(repr=False, default=())
     """With a structure finding: the ranking against the paper model alone that found it."""
+    gyro: GyroPath = field(repr=False, default_factory=lambda: GyroPath(False, note="not tested"))
+    """The gyro's path read against a logged attitude (:func:`jaxgwo._diagnose_where.gyro_path`)."""
     nominal_simulates: bool = True
     """Whether the nominal's held-out simulation is finite.  A long delay can drive the
     delay-free paper fit to a servo no simulation survives; its prediction is then taken
@@ -312,6 +316,11 @@ class Diagnosis:
                 "equivalent_delay_s": num(self.mismatch.equivalent_delay_s),
                 "resonance_hz": None if self.mismatch.resonance_hz is None else num(self.mismatch.resonance_hz),
                 "amplitude_note": self.amplitude.note,
+                "gyro_path": {
+                    "tested": bool(self.gyro.tested), "filter_found": self.gyro.shows_filter(),
+                    "cutoff_hz": num(self.gyro.cutoff_hz), "cutoff_range_hz": [num(v) for v in self.gyro.cutoff_range_hz],
+                    "p_value": num(self.gyro.p_value), "note": self.gyro.note,
+                },  # fmt: skip
             },
             "ranking": [cand(c) for c in self.ranking],
             "verdict": self.verdict,
@@ -335,6 +344,8 @@ class Diagnosis:
             lines.append("The nominal model stays within the response's random-error bounds at every frequency.")
         if self.amplitude.dependent:
             lines.append(f"The response depends on amplitude ({self.amplitude.note}).")
+        if self.gyro.tested:
+            lines.append(f"{self.gyro.note[:1].upper()}{self.gyro.note[1:]}.")
         if not self.nominal_simulates:
             p = self.nominal_params
             lines.append(
@@ -400,7 +411,8 @@ _SAME_INPUT_OUTPUT = {"sensor_lag": "rotor_flapping", "rotor_flapping": "sensor_
 parameters are refitted (``test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family``)."""
 
 
-def separation_suggestion(ranking: Sequence[CandidateScore], margin: float = 0.1) -> str:
+def separation_suggestion(ranking: Sequence[CandidateScore], margin: float = 0.1,
+                          settled: Collection[frozenset] = ()) -> str:
     """The report's advice on telling the top candidate from its rivals ("" when none).
 
     When the top two both beat noise and score within ``margin`` (the score is a
@@ -409,19 +421,22 @@ def separation_suggestion(ranking: Sequence[CandidateScore], margin: float = 0.1
     of :data:`SEPARATING_EXCITATION` that separates them.  A top candidate of
     :data:`_SAME_INPUT_OUTPUT` carries its twin's caveat whatever the scores: the two
     fit the same responses, so a score difference between them is the fits' luck, not
-    evidence.
+    evidence.  Pairs in ``settled`` (the two lags, where the gyro path was tested) the
+    data have told apart already: no advice for them.
     """
     if not ranking or not ranking[0].beats_noise:
         return ""
     a = ranking[0].effects[0]
     if len(ranking) >= 2 and ranking[1].beats_noise and ranking[0].score - ranking[1].score < margin:
         b = ranking[1].effects[0]
+        if frozenset({a, b}) in settled:
+            return ""
         tip = SEPARATING_EXCITATION.get(frozenset({a, b}))
         return f"{a} and {b} explain the data almost equally well" + (
             f"; {tip}." if tip else "; fly a wider-band, two-amplitude sweep to separate them."
         )
     twin = _SAME_INPUT_OUTPUT.get(a)
-    if twin is None:
+    if twin is None or frozenset({a, twin}) in settled:
         return ""
     return f"{a} fits best, but {twin} would explain the same data; {SEPARATING_EXCITATION[frozenset({a, twin})]}."
 
@@ -505,6 +520,54 @@ def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[C
         return ranking
     moved = [dataclasses.replace(c, detail=dict(c.detail) | {"ranked_over_delay_by": top - c.score}) for c in lags]
     return (*moved, *(c for c in ranking if not any(c is x for x in lags)))
+
+
+def _gyro_path(records: Sequence[FlightRecord], channel: str, pairs, sample_rate_hz: float, w: np.ndarray,
+               coherence_threshold: float) -> GyroPath:
+    """:func:`jaxgwo._diagnose_where.gyro_path` on the identification records where every
+    one logs the channel's attitude (:data:`jaxgwo._data.ATTITUDE_COLUMNS`), each signal
+    taken relative to its trim as in :func:`_time_pairs`."""
+    name = ATTITUDE_COLUMNS[channel]
+    if not all(name in r.columns for r in records):
+        return GyroPath(False, note=f"the identification records log no attitude {name!r}: the gyro path is not tested")
+    att = []
+    for rec, (_t, u, _o, _y) in zip(records, pairs):
+        a = np.asarray(rec[name], float)
+        n0 = max(1, min(int(round(0.5 * float(rec.sample_rate))), a.size // 10))
+        att.append((u, a - float(np.mean(a[:n0]))))
+    return gyro_path([(u, y) for _t, u, _o, y in pairs], att, sample_rate_hz, w, coherence_threshold=coherence_threshold)
+
+
+def _gyro_path_order(ranking: Sequence[CandidateScore], gyro: GyroPath, alpha: float) -> tuple[CandidateScore, ...]:
+    """``ranking`` (best first) as the gyro path decides it: where the attitude shows a gyro
+    filter, a passing ``sensor_lag`` goes first (``detail["ranked_by_gyro_path"]``); where it
+    shows none and rejects the candidate's cutoff, the ``sensor_lag`` no longer beats noise
+    (``detail["refuted_by_gyro_path"]``, its score less 10, placed among the failing ones)
+    and the passing ones keep their order.
+    A flapping lag inside the rotor/fuselage loop moves rate and attitude alike, a gyro
+    filter only the rate: this separates the two lags no cyclic input separates
+    (:data:`SEPARATING_EXCITATION`).  Unchanged where the gyro path was not tested."""
+    ranking = tuple(ranking)
+    if not gyro.tested:
+        return ranking
+    i = next((j for j, c in enumerate(ranking) if c.effects == ("sensor_lag",)), None)
+    if i is None:
+        return ranking
+    c = ranking[i]
+    if gyro.shows_filter(alpha):
+        if not c.beats_noise or i == 0:
+            return ranking
+        moved = dataclasses.replace(c, detail=dict(c.detail) | {"ranked_by_gyro_path": 1.0})
+        return (moved, *ranking[:i], *ranking[i + 1 :])
+    if c.beats_noise and gyro.refutes(c.params["sensor_lag"]["cutoff_hz"], alpha):
+        out = dataclasses.replace(c, beats_noise=False, score=c.score - 10.0,
+                                  detail=dict(c.detail) | {"refuted_by_gyro_path": 1.0})  # fmt: skip
+        rest = (*ranking[:i], *ranking[i + 1 :])
+        # the passing ones keep their order (lags moved over a delay stay so), the demoted
+        # lag goes among the failing ones by its score
+        failing = sorted([x for x in rest if not x.beats_noise] + [out], key=_best_first)
+        return (*(x for x in rest if x.beats_noise), *failing)
+    return ranking
 
 
 @dataclass(frozen=True)
@@ -784,6 +847,11 @@ def diagnose(
     amp = amplitude_dependence([(u, y) for _t, u, _o, y in tt], 1.0 / dt,
                                np.asarray(resp.w), coherence_threshold=ids.coherence_threshold)  # fmt: skip
     nlb = noise_limited_bands(resp)
+    gyro = _gyro_path(train, channel, tt, 1.0 / dt, np.asarray(resp.w), ids.coherence_threshold)
+    # a gyro filter the attitude shows is measured there: its candidate is fitted with that
+    # cutoff (one above the candidate's box, 100 Hz, acts beyond the analysed band)
+    shown = gyro.shows_filter(settings.alpha) and math.log(gyro.cutoff_hz) < _Z_HI[1]
+    held = {1: math.log(gyro.cutoff_hz)} if shown else None
     yv, pv = jnp.asarray(np.concatenate(val_meas)), jnp.asarray(np.concatenate(val_nom))
     r2_nom, tic_nom = float(r_squared(yv, pv)), float(theil_inequality(yv, pv))
 
@@ -837,7 +905,7 @@ def diagnose(
         # on top of a structure finding its mode keeps the structure step's wider box
         z_hi = _Z_HI_STRUCTURE if base.linear else None
         lin = fit_linear_candidates(obj0, x0, lin_names, k_lin, wolves=settings.wolves, iterations=settings.iterations,
-                                    dependence_factor=dep, effect_seed=seed0, z_hi=z_hi)  # fmt: skip
+                                    dependence_factor=dep, effect_seed=seed0, z_hi=z_hi, held_z=held)  # fmt: skip
         # (objective, start, effect seed, sign vector) each linear candidate was refitted from
         lin_from = {f.effects: base.start for f in lin}
         if not base.linear and ("time_delay",) in lin_from:
@@ -901,6 +969,16 @@ def diagnose(
             spec = ModelSpec(np.exp(f.x[:5]) * sv, f.params)
             specs[own] = spec
             k = sum(len(EFFECTS[e].params) for e in own)
+            if held is not None and "sensor_lag" in own:
+                # The gyro filter's cutoff is the attitude's measurement (gyro_path): the evidence
+                # for it, and its 1-sigma half the range there; the held-out records must only
+                # not contradict it.  No output-error refit: it would move the cutoff.
+                lo_c, hi_c = gyro.cutoff_range_hz
+                sig = {"sensor_lag": {"cutoff_hz": 0.5 * (hi_c - lo_c) if math.isfinite(hi_c) else math.inf}}
+                sc = score(base, own, {e: f.params[e] for e in own}, sig, spec, f.cost_J, base.cost_J, k,
+                           extra_p=gyro.p_value, j_required=False)  # fmt: skip
+                lin_scores.append((own, sc, None, None, {"time_domain_path": 0.0, "cutoff_from_gyro_path": 1.0}))
+                continue
             sc = score(base, own, {e: f.params[e] for e in own}, {e: f.sigma[e] for e in own}, spec, f.cost_J,
                        base.cost_J, k)  # fmt: skip
             # The time-domain check: the same effect refitted by output error against the null
@@ -1060,6 +1138,7 @@ def diagnose(
         scored, specs, fits, lin_from, _oe = rank(base_s, [c for c in cands if c != "structural_mode"], k_lin_s,
                                                   k_nl_s, 3, "which, on top of the extra mode", prior=prior)  # fmt: skip
         ranking = tuple(sorted(scored, key=_best_first))  # no lag_over_delay on top of the mode: see its docstring
+    ranking = _gyro_path_order(ranking, gyro, settings.alpha)
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
     if structure is None:
         # a gyro filter's model handed over is its output-error refit (_output_error_estimate)
@@ -1089,12 +1168,12 @@ def diagnose(
         if a in FREQUENCY_DOMAIN and b in FREQUENCY_DOMAIN:
             obj, x0, seed, sv = lin_from[("time_delay",)] if "time_delay" in pair else lin_from[(a,)]
             (f,) = fit_linear_candidates(obj, x0, [pair], k_comb, wolves=settings.wolves, iterations=settings.iterations,
-                                         dependence_factor=dep, effect_seed=seed)  # fmt: skip
+                                         dependence_factor=dep, effect_seed=seed, held_z=held)  # fmt: skip
             spec = ModelSpec(np.exp(f.x[:5]) * sv, f.params)
             combined = score(base0, pair, f.params, f.sigma, spec, f.cost_J, base0.cost_J, k2)
             # with a gyro filter, estimated as it is alone: the pair's output-error refit from its J fit
             td_base = specs.get((), nom_spec)
-            tdf = None if "sensor_lag" not in pair else refit_linear_time_domain(
+            tdf = None if "sensor_lag" not in pair or held is not None else refit_linear_time_domain(
                 td_base, tt, pair, [_output_error_start(f.x[5:], f.x)], tc)  # fmt: skip
             if tdf is not None:
                 td_spec = tdf.spec(td_base)
@@ -1128,7 +1207,7 @@ def diagnose(
             combined = score(base0, pair, params, sigma, spec, sim_J(spec), base0.cost_J_sim, k2,
                              j_required="cross_coupling" not in pair)  # fmt: skip
 
-    suggestion = separation_suggestion(ranking)
+    suggestion = separation_suggestion(ranking, settled=[frozenset(_LAGS)] if gyro.tested else [])
     tick(len(DIAGNOSE_STAGES), "done")
     return Diagnosis(
         channel=channel,
@@ -1136,7 +1215,7 @@ def diagnose(
         nominal_cost_J=float(nominal.cost_J), nominal_r2=r2_nom, nominal_tic=tic_nom,
         mismatch=fm, residuals=rt, off_axis_residuals=off_rt, amplitude=amp, noise_limited_bands_hz=nlb,
         ranking=ranking, verdict=verdict, combined=combined, skipped=skipped, structure=structure,
-        paper_ranking=paper_ranking, nominal_simulates=nominal_simulates,
+        paper_ranking=paper_ranking, nominal_simulates=nominal_simulates, gyro=gyro,
         val_time=tuple(t for t, *_r in tv), val_measured=tuple(val_meas), val_nominal=tuple(val_nom),
         response_w=np.asarray(resp.w), suggestion=suggestion,
     )  # fmt: skip

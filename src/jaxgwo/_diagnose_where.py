@@ -1,6 +1,6 @@
 r"""Sim-to-real gap diagnosis, step 2: *where* the identified model departs from the data.
 
-Four signature detectors, each comparing a departure with the data's own noise:
+Five signature detectors, each comparing a departure with the data's own noise:
 
 * :func:`frequency_mismatch`: model minus measured response, magnitude (dB) and phase
   (deg), against the random-error bounds of the H1 estimate.  With the normalised random
@@ -15,14 +15,18 @@ Four signature detectors, each comparing a departure with the data's own noise:
   halves of the identification records, compared within their random errors.
 * :func:`noise_limited_bands`: where coherence is lost (unmeasured disturbance or noise,
   not model structure).
+* :func:`gyro_path`: where the records log an attitude, the gyro's own filter, from the
+  ratio of the rate's and the attitude rate's responses to the same input.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.optimize
 import scipy.signal
 import scipy.stats
 
@@ -37,6 +41,8 @@ __all__ = [
     "amplitude_dependence",
     "noise_limited_bands",
     "bands_from_flags",
+    "GyroPath",
+    "gyro_path",
 ]
 
 _DB_PER_NEPER = 20.0 / np.log(10.0)
@@ -301,3 +307,154 @@ def amplitude_dependence(
         if dep else f"no amplitude dependence beyond noise between amplitudes differing x{ratio:.2f}"
     )  # fmt: skip
     return AmplitudeDependence(dep, ratio, frac, float(np.median(dmag)), float(np.median(dph)), note)
+
+
+@dataclass(frozen=True)
+class GyroPath:
+    r"""The gyro's own path, from a logged attitude (:func:`gyro_path`).
+
+    ``tested`` is False (with the reason in ``note``) where the records log no attitude or
+    too few frequencies pass.  ``cutoff_hz`` is the best first-order cutoff of
+    :math:`R = g/(1 + j\omega/\omega_c)` (``inf``: none) and ``cutoff_range_hz`` where
+    :math:`\chi^2` stays within ``scale`` of its minimum; ``p_value`` is that of the lag
+    against none (:math:`\chi^2_1` of the drop in :math:`\chi^2`, divided by ``scale``).
+    ``scale`` (at least 1) is the Birge ratio :math:`\chi^2_{min}/(2n - 2)`: leakage and
+    gusts the random-error formula leaves out inflate it, and every test divides by it.
+    """
+
+    tested: bool
+    cutoff_hz: float = float("inf")
+    cutoff_range_hz: tuple[float, float] = (0.0, float("inf"))
+    p_value: float = 1.0
+    scale: float = 1.0
+    n_points: int = 0
+    note: str = ""
+    f_hz: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    ratio: np.ndarray = field(default_factory=lambda: np.zeros(0, complex), repr=False)
+    error: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    def chi2(self, cutoff_hz: float) -> float:
+        r""":math:`\chi^2` of a gyro filter at ``cutoff_hz`` (``inf``: none), its gain fitted."""
+        return _lag_chi2(self.f_hz, self.ratio, self.error, cutoff_hz)
+
+    def shows_filter(self, alpha: float = 1e-3) -> bool:
+        """Whether the gyro path holds a first-order filter, at level ``alpha``."""
+        return bool(self.tested and self.p_value < alpha)
+
+    def refutes(self, cutoff_hz: float, alpha: float = 1e-3) -> bool:
+        r"""Whether a gyro filter at ``cutoff_hz`` is rejected at level ``alpha`` against
+        the best cutoff (the :math:`\chi^2_1` increase over ``scale``)."""
+        if not self.tested:
+            return False
+        d = (self.chi2(cutoff_hz) - self.chi2(self.cutoff_hz)) / self.scale
+        return bool(scipy.stats.chi2.sf(max(d, 0.0), 1) < alpha)
+
+
+def _lag_chi2(f_hz: np.ndarray, ratio: np.ndarray, err: np.ndarray, cutoff_hz: float) -> float:
+    """Weighted squared error of ``log ratio`` against ``log(g / (1 + j f/f_c))``, the real
+    gain ``g`` in closed form (magnitude in nepers and phase in radians share the error)."""
+    x = f_hz / cutoff_hz if np.isfinite(cutoff_hz) else np.zeros_like(f_hz)
+    lag = -np.log1p(1j * x)
+    d = np.log(ratio) - lag
+    wts = 1.0 / err**2
+    log_g = np.sum(wts * d.real) / np.sum(wts)
+    dm = d.real - log_g
+    dp = np.angle(np.exp(1j * d.imag))  # the phase error wrapped to (-pi, pi]
+    return float(np.sum(wts * (dm**2 + dp**2)))
+
+
+def _chi2_range(chi2, grid: np.ndarray, c2: np.ndarray, best: float, target: float, c_null: float) -> tuple[float, float]:
+    """Where ``chi2`` (of the cutoff) stays below ``target`` around ``best``: each end
+    bracketed on ``grid`` (values ``c2``) and found by Brent's method in the log of the
+    cutoff; ``0`` or ``inf`` where the grid's end (``inf``: no filter, ``c_null``) stays
+    below it."""
+
+    def root(a: float, b: float) -> float:
+        return math.exp(scipy.optimize.brentq(lambda lc: chi2(math.exp(lc)) - target, math.log(a), math.log(b)))
+
+    if not math.isfinite(best):
+        above = grid[c2 > target]
+        return (float(root(above.max(), grid[-1])) if above.size and c2[-1] <= target else
+                float(grid[-1]) if above.size else 0.0), float("inf")  # fmt: skip
+    below_out = grid[(grid < best) & (c2 > target)]
+    above_out = grid[(grid > best) & (c2 > target)]
+    lo = root(float(below_out.max()), best) if below_out.size else 0.0
+    hi = root(best, float(above_out.min())) if above_out.size else float("inf") if c_null <= target else float(grid[-1])
+    return float(lo), float(hi)
+
+
+def gyro_path(
+    rate_pairs: Sequence[tuple[np.ndarray, np.ndarray]],
+    attitude_pairs: Sequence[tuple[np.ndarray, np.ndarray]],
+    sample_rate_hz: float,
+    w: np.ndarray,
+    *,
+    coherence_threshold: float = 0.6,
+    bias_floor: float = 0.01,
+    min_points: int = 8,
+    cutoff_grid_hz: tuple[float, float] = (1.0, 200.0),
+    window_lengths_s: Sequence[float] | None = None,
+) -> GyroPath:
+    r"""What the gyro adds to the body rate, read against a logged attitude.
+
+    An attitude estimator integrates the raw gyro's delta angles, before the gyro filter
+    the rate controller (and the log's rate) sees, so the ratio of the two responses to the
+    same input, :math:`R(j\omega) = (p/u) / (j\omega\,(\phi/u))`, is the gyro path alone:
+    1 with no filter, :math:`1/(1 + j\omega/\omega_c)` with a first-order gyro filter
+    (``sensor_lag``), and 1 again for a flapping lag inside the rotor/fuselage loop
+    (``rotor_flapping``), which moves rate and attitude alike.  The two responses are H1
+    estimates from the same input records on ``w``, so the ratio needs no ZOH correction
+    (the attitude's enters as a rate by central differences, their response divided out);
+    its normalised random error is :math:`\sqrt{\varepsilon_p^2 + \varepsilon_\phi^2}`
+    plus ``bias_floor`` (as in :func:`amplitude_dependence`), on the points where both
+    pass ``coherence_threshold``.  Both are estimated with one window,
+    ``window_lengths_s`` (default two periods of the lowest frequency of ``w``, the
+    longest a composite estimate uses).  The cutoff is fitted on a log grid over
+    ``cutoff_grid_hz`` and refined; its range is where :math:`\chi^2` stays within 1 of
+    the minimum.
+    """
+    if not attitude_pairs:
+        return GyroPath(False, note="the records log no attitude for this channel")
+    # The attitude as a rate, by central differences (its response j sin(w dt)/dt times the
+    # attitude's, divided out below): both responses then share one spectral shape, and the
+    # windows' leakage, which an integrator's low-frequency power makes large, cancels.
+    dt = 1.0 / sample_rate_hz
+    cut = [(u[1:-1], y[1:-1]) for u, y in rate_pairs]
+    diff = [(u[1:-1], (a[2:] - a[:-2]) / (2.0 * dt)) for u, a in attitude_pairs]
+    try:
+        # one window for both: where the composite's choice of window differs between the two
+        # responses, so does its leakage, and the ratio is biased (a 12 Hz filter read 11.3 Hz)
+        wins = [4.0 * np.pi / float(np.min(w))] if window_lengths_s is None else list(window_lengths_s)
+        kw = dict(coherence_threshold=coherence_threshold, window_lengths_s=wins)
+        rp = composite_frequency_response(cut, sample_rate_hz, w, **kw)
+        ra = composite_frequency_response(diff, sample_rate_hz, w, **kw)
+    except ValueError as err:
+        return GyroPath(False, note=f"could not estimate the rate and attitude responses: {err}")
+    m = np.asarray(rp.mask) & np.asarray(ra.mask)
+    if m.sum() < min_points:
+        return GyroPath(False, n_points=int(m.sum()),
+                        note=f"only {int(m.sum())} frequencies pass in both the rate and the attitude response")  # fmt: skip
+    wm = np.asarray(w, float)[m]
+    ratio = np.asarray(rp.H)[m] / np.asarray(ra.H)[m] * np.sinc(wm * dt / np.pi)  # sin(w dt)/(w dt)
+    err = np.sqrt(np.asarray(rp.random_error)[m] ** 2 + np.asarray(ra.random_error)[m] ** 2 + bias_floor**2)
+    f = wm / (2.0 * np.pi)
+    grid = np.geomspace(*cutoff_grid_hz, 121)
+    c2 = np.array([_lag_chi2(f, ratio, err, c) for c in grid])
+    c_null = _lag_chi2(f, ratio, err, float("inf"))
+    i = int(np.argmin(c2))
+    best, c_best = float(grid[i]), float(c2[i])
+    if 0 < i < grid.size - 1:
+        r = scipy.optimize.minimize_scalar(lambda lc: _lag_chi2(f, ratio, err, math.exp(lc)),
+                                           bounds=(math.log(grid[i - 1]), math.log(grid[i + 1])), method="bounded")  # fmt: skip
+        if r.fun < c_best:
+            best, c_best = math.exp(r.x), float(r.fun)
+    if c_null <= c_best:
+        best, c_best = float("inf"), c_null
+    n = int(m.sum())
+    scale = max(1.0, c_best / max(2 * n - 2, 1))
+    lo, hi = _chi2_range(lambda c: _lag_chi2(f, ratio, err, c), grid, c2, best, c_best + scale, c_null)
+    p = float(scipy.stats.chi2.sf(max(c_null - c_best, 0.0) / scale, 1))
+    shown = f"{best:.3g} Hz ({lo:.3g}-{hi:.3g})" if math.isfinite(best) else "none"
+    note = (f"gyro path against the logged attitude ({n} frequencies, {f.min():.2g}-{f.max():.2g} Hz): "
+            f"first-order filter {shown}, p = {p:.2g} against none")  # fmt: skip
+    return GyroPath(True, best, (lo, hi), p, scale, n, note, f, ratio, err)

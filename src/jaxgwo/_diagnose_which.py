@@ -325,6 +325,7 @@ def fit_linear_candidates(
     dependence_factor: float = 1.0,
     effect_seed: np.ndarray | None = None,
     z_hi: np.ndarray | None = None,
+    held_z: Mapping[int, float] | None = None,
 ) -> list[LinearFit]:
     """Refit the paper model plus each tuple of frequency-domain effects on ``J``.
 
@@ -336,6 +337,9 @@ def fit_linear_candidates(
     ``effect_seed`` (six effect coordinates ``z``) seeds the first wolf's active effect
     coordinates beside the nominal paper parameters (a :class:`DelayStart`'s delay).
     ``z_hi`` replaces the top of the effect coordinates' box (default ``_Z_HI``).
+    ``held_z`` maps effect coordinates to values they are held at (clipped to the box) in
+    every candidate that has them (a gyro filter's cutoff measured against the attitude,
+    :func:`jaxgwo._diagnose_where.gyro_path`).
     """
     from scipy.optimize import least_squares
 
@@ -354,6 +358,10 @@ def fit_linear_candidates(
         x_c[4] = min(max(x_c[4], math.log(ZETA_S_RANGE[0]) + half), math.log(ZETA_S_RANGE[1]) - half)
         lo = np.r_[x_c - half, np.where(act, _Z_LO, _Z_NEUTRAL)]
         hi = np.r_[x_c + half, np.where(act, z_top, _Z_NEUTRAL + 1e-9)]
+        for slot, v in (held_z or {}).items():
+            if act[slot]:
+                lo[5 + slot] = min(max(v, _Z_LO[slot]), z_top[slot] - 1e-9)
+                hi[5 + slot] = lo[5 + slot] + 1e-9
         ku, kn = jax.random.split(cand_keys[i][0])
         u = np.asarray(jax.random.uniform(ku, (n_seed, 6), dtype=jnp.float64))
         z0 = np.where(act, _Z_LO + u * (z_top - _Z_LO), _Z_NEUTRAL)

@@ -1,0 +1,210 @@
+"""The gyro path read against a logged attitude: the simulator's attitude against its body
+rate, the ratio's filter fit against scipy.signal.lsim data and the analytic first-order
+response, the ranking rule it drives, and one diagnosis end to end."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import scipy.signal
+
+from jaxgwo._diagnose import DiagnoseSettings, _gyro_path_order, diagnose, separation_suggestion
+from jaxgwo._diagnose_where import GyroPath, gyro_path
+from jaxgwo._diagnose_which import CandidateScore
+from jaxgwo._effects import EffectSet
+from jaxgwo._identify import IdentifySettings
+from jaxgwo._plants import PaperPlant
+from jaxgwo._signals import doublet, frequency_sweep, multistep_3211, pilot_corrections
+from jaxgwo._simulate import Disturbance, simulate
+
+FS = 100.0
+PLANT = PaperPlant.default()
+W = 2 * np.pi * np.geomspace(0.3, 15.0, 60)
+
+
+def _sweep_input(n, seed=0):
+    t = jnp.arange(n, dtype=jnp.float64) / FS
+    sw = frequency_sweep(t, f_start_hz=0.3, f_stop_hz=15.0, duration_s=n / FS - 4.0, amplitude=0.08, start_s=2.0)
+    return jnp.stack([sw, pilot_corrections(jax.random.key(seed), n, FS, rms=0.02)], 1)
+
+
+# -- the simulator's attitude ---------------------------------------------------------------
+
+
+def test_logged_attitude_integrates_the_raw_gyro_and_skips_the_gyro_filter():
+    """Noise-free: the attitude's central difference is the body rate, a gyro filter changes the
+    logged rate but not the attitude (it reads the raw gyro), an in-loop flapping lag
+    changes both, and a structural mode at the gyro shows in both alike (the attitude's
+    derivative is the logged rate, 400 Hz sampling for an 8 Hz mode).  Logging it leaves
+    every other column as it was."""
+    u = _sweep_input(3000)
+    key = jax.random.key(3)
+    base = simulate(PLANT, u, key, sample_rate_hz=FS)
+    lag = simulate(PLANT, u, key, sample_rate_hz=FS, effects=EffectSet().with_effect("sensor_lag", cutoff_hz=8.0))
+    flap = simulate(PLANT, u, key, sample_rate_hz=FS, effects=EffectSet().with_effect("rotor_flapping", tau_f=0.03))
+    phi, p = np.asarray(base.attitude[:, 0]), np.asarray(base.body_rate[:, 0])
+    d_phi = (phi[2:] - phi[:-2]) * FS / 2.0
+    assert np.max(np.abs(d_phi - p[1:-1])) < 0.02 * np.max(np.abs(p))  # central difference of a 1.5 Hz-ish sweep
+    np.testing.assert_array_equal(np.asarray(lag.attitude), np.asarray(base.attitude))
+    assert np.max(np.abs(np.asarray(lag.rate - base.rate))) > 0.1 * np.max(np.abs(p))
+    assert np.max(np.abs(np.asarray(flap.attitude - base.attitude))) > 0.05 * np.max(np.abs(phi))
+    fast = 4.0 * FS
+    mode = simulate(PLANT, jnp.repeat(u, 4, axis=0), key, sample_rate_hz=fast,
+                    effects=EffectSet().with_effect("structural_mode", freq_hz=8.0, zeta_p=0.05, zeta_z=0.2))  # fmt: skip
+    phi_m, rate_m = np.asarray(mode.attitude[:, 0]), np.asarray(mode.rate[:, 0])
+    body_m = np.asarray(mode.body_rate[:, 0])
+    d_m = (phi_m[2:] - phi_m[:-2]) * fast / 2.0
+    assert np.max(np.abs(rate_m - body_m)) > 0.05 * np.max(np.abs(body_m))  # the mode shows in the rate
+    assert np.max(np.abs(d_m - rate_m[1:-1])) < 0.01 * np.max(np.abs(rate_m))  # and in the attitude alike
+    # the attitude column is optional; with it the other columns are unchanged, with noise as well
+    dist = Disturbance(gust_rms=0.05, snr_db=30.0)
+    noisy = simulate(PLANT, u, key, sample_rate_hz=FS, disturbance=dist)
+    plain, with_att = noisy.to_record(), noisy.to_record(attitude=True)
+    assert "phi" not in plain.columns and {"phi", "theta"} <= set(with_att.columns)
+    for c in plain.columns:
+        np.testing.assert_array_equal(np.asarray(with_att[c]), np.asarray(plain[c]))
+    # the estimator's error: independent of the gyro noise, small against the attitude
+    err = np.asarray(noisy.attitude[:, 0]) - np.asarray(simulate(PLANT, u, key, sample_rate_hz=FS,
+                                                                  disturbance=Disturbance(gust_rms=0.05)).attitude[:, 0])
+    assert 0.0 < np.std(err) < 0.05 * np.std(phi)
+
+
+# -- the ratio and its filter fit --------------------------------------------------------------
+
+
+def _lsim_pairs(cutoff_hz, n=6000, noise=0.0, seed=0):
+    """Rate through a gyro filter and the attitude of the paper model, by scipy.signal.lsim
+    (an independent integrator), driven by a sweep plus broadband input."""
+    k, tau, m, ws, zs = (float(v) for v in np.asarray(PLANT.lateral))
+    num = np.array([k * ws * ws])
+    den = np.polymul([1.0, 1.0 / tau, m], [1.0, 2 * zs * ws, ws * ws])
+    gyro_den = np.polymul(den, [1.0 / (2 * np.pi * cutoff_hz), 1.0]) if cutoff_hz else den
+    t = np.arange(n) / FS
+    u = np.asarray(_sweep_input(n, seed)[:, 0])
+    rate = scipy.signal.lsim((num, gyro_den), u, t)[1]
+    att = scipy.signal.lsim((num, np.polymul(den, [1.0, 0.0])), u, t)[1]
+    rng = np.random.default_rng(seed)
+    return [(u, rate + noise * np.std(rate) * rng.standard_normal(n))], [(u, att + noise * np.std(att) * rng.standard_normal(n))]
+
+
+@pytest.mark.parametrize("cutoff_hz", [6.0, 12.0, 25.0])
+def test_gyro_path_recovers_a_first_order_filter(cutoff_hz):
+    rates, atts = _lsim_pairs(cutoff_hz, noise=0.01)
+    g = gyro_path(rates, atts, FS, W)
+    assert g.tested and g.shows_filter(1e-6)
+    assert abs(g.cutoff_hz - cutoff_hz) < 0.05 * cutoff_hz
+    lo, hi = g.cutoff_range_hz
+    assert lo < g.cutoff_hz < hi and hi - lo < 0.3 * cutoff_hz
+    # the ratio itself against the analytic filter 1/(1 + j f/f_c), within each kept point's
+    # own error bound (random error and bias floor, inflated by the fit's Birge ratio)
+    # in log magnitude (nepers) and in phase (rad), the fitted gain divided out
+    d = np.log(g.ratio * (1.0 + 1j * g.f_hz / cutoff_hz))
+    d = d - np.sum(d.real / g.error**2) / np.sum(1.0 / g.error**2)
+    bound = 4.0 * g.error * math.sqrt(g.scale)
+    assert np.all(np.abs(d.real) < bound) and np.all(np.abs(d.imag) < bound)
+    assert np.median(np.abs(d)) < 0.02
+    assert not g.refutes(g.cutoff_hz) and g.refutes(3.0 * cutoff_hz) and g.refutes(math.inf)
+
+
+def test_gyro_path_without_a_filter_finds_none_and_refutes_a_low_cutoff():
+    rates, atts = _lsim_pairs(None, noise=0.01)
+    g = gyro_path(rates, atts, FS, W)
+    assert g.tested and not g.shows_filter(1e-3) and g.cutoff_hz > 50.0
+    assert g.refutes(8.0) and not g.refutes(math.inf)
+    assert not gyro_path(rates, [], FS, W).tested  # no attitude logged: not tested, with the reason
+    assert "no attitude" in gyro_path(rates, [], FS, W).note
+
+
+def test_lag_chi2_is_zero_on_an_exact_filter_whatever_its_gain():
+    f = np.geomspace(0.5, 15.0, 40)
+    g = GyroPath(True, 10.0, (9.0, 11.0), 0.0, 1.0, f.size, "", f, 2.5 / (1.0 + 1j * f / 10.0), np.full(f.size, 0.01))
+    assert g.chi2(10.0) == pytest.approx(0.0, abs=1e-20)
+    # off the cutoff: the weighted squared log error, gain refitted, by hand
+    d = np.log(g.ratio) + np.log1p(1j * f / 12.0)
+    dm = d.real - d.real.mean()
+    assert g.chi2(12.0) == pytest.approx(np.sum((dm**2 + d.imag**2) / 0.01**2), rel=1e-12)
+
+
+# -- the ranking rule ---------------------------------------------------------------------------
+
+
+def _scored(effect, score, ok=True, params=None):
+    nan = float("nan")
+    return CandidateScore((effect,), params or {effect: {}}, {effect: {}}, nan, nan, nan, nan, nan, nan, nan, nan, nan,
+                          ok, 0.0, score, 1)  # fmt: skip
+
+
+def _path(cutoff_hz):
+    rates, atts = _lsim_pairs(cutoff_hz, noise=0.01)
+    return gyro_path(rates, atts, FS, W)
+
+
+def test_gyro_path_orders_the_two_lags():
+    lag = lambda c, s=1.9, ok=True: _scored("sensor_lag", s, ok, {"sensor_lag": {"cutoff_hz": c}})  # noqa: E731
+    ranking = (_scored("rotor_flapping", 2.0), _scored("time_delay", 1.95), lag(12.0))
+    # a filter in the gyro path: the passing sensor_lag goes first
+    out = _gyro_path_order(ranking, _path(12.0), 1e-3)
+    assert [c.effects[0] for c in out] == ["sensor_lag", "rotor_flapping", "time_delay"]
+    assert out[0].detail["ranked_by_gyro_path"] == 1.0
+    # ... but one that does not beat noise stays where it is
+    failing = (*ranking[:2], lag(12.0, -8.0, ok=False))
+    assert _gyro_path_order(failing, _path(12.0), 1e-3) == failing
+    # none in the gyro path: a sensor_lag at the top whose cutoff it rejects no longer beats noise
+    top_lag = (lag(8.0, 2.1), _scored("rotor_flapping", 2.0), _scored("time_delay", 1.0))
+    out = _gyro_path_order(top_lag, _path(None), 1e-3)
+    assert [c.effects[0] for c in out] == ["rotor_flapping", "time_delay", "sensor_lag"]
+    assert not out[-1].beats_noise and out[-1].detail["refuted_by_gyro_path"] == 1.0
+    assert out[-1].score == pytest.approx(2.1 - 10.0)
+    # the passing ones keep their order: lags moved over a delay (_lag_over_delay) stay ahead of it
+    moved = (_scored("rotor_flapping", 1.9), lag(8.0, 1.88), _scored("time_delay", 2.0), _scored("backlash", -9.0, False))
+    out = _gyro_path_order(moved, _path(None), 1e-3)
+    assert [c.effects[0] for c in out] == ["rotor_flapping", "time_delay", "sensor_lag", "backlash"]
+    # not tested (no attitude): unchanged
+    assert _gyro_path_order(top_lag, GyroPath(False), 1e-3) == top_lag
+
+
+def test_no_advice_to_separate_the_lags_once_the_gyro_path_has():
+    lags = [_scored("sensor_lag", 2.0), _scored("rotor_flapping", 1.98)]
+    assert "attitude" in separation_suggestion(lags)  # without it: log the attitude
+    settled = [frozenset({"sensor_lag", "rotor_flapping"})]
+    assert separation_suggestion(lags, settled=settled) == ""
+    assert separation_suggestion(lags[:1], settled=settled) == ""  # the twin caveat too
+    # other pairs keep their advice
+    assert "filter cutoff" in separation_suggestion([_scored("sensor_lag", 2.0), _scored("time_delay", 1.98)],
+                                                    settled=settled)  # fmt: skip
+
+
+# -- end to end ----------------------------------------------------------------------------------
+
+
+def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter():
+    """A 10 Hz gyro filter on the paper plant, TRAIN two sweeps with the attitude logged: the
+    gyro path finds the filter, the sensor_lag candidate is fitted at its cutoff and ranked
+    first, and the JSON report carries the gyro path."""
+    settings = DiagnoseSettings(
+        identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80,
+                                  polish_steps=30, w_max=120.0),
+        wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6,
+        candidates=("time_delay", "sensor_lag", "rotor_flapping"),
+    )  # fmt: skip
+    eff = EffectSet().with_effect("sensor_lag", cutoff_hz=10.0)
+    dist = Disturbance(gust_rms=0.05, snr_db=35.0)
+    k = jax.random.split(jax.random.key(5), 4)
+    tr = simulate(PLANT, _sweep_input(5000, 1), k[0], sample_rate_hz=FS, disturbance=dist, effects=eff)
+    nv = 2000
+    tv = jnp.arange(nv, dtype=jnp.float64) / FS
+    lat = multistep_3211(tv, amplitude=0.075, unit_s=0.3, start_s=1.0) + doublet(tv, amplitude=0.075, pulse_s=0.4,
+                                                                                 start_s=10.0)  # fmt: skip
+    va = simulate(PLANT, jnp.stack([lat, pilot_corrections(k[1], nv, FS, rms=0.02)], 1), k[2], sample_rate_hz=FS,
+                  disturbance=dist, effects=eff)  # fmt: skip
+    d = diagnose([tr.to_record(attitude=True)], [va.to_record()], "lateral", settings)
+    gp = d.to_json()["where"]["gyro_path"]
+    assert gp["tested"] and gp["filter_found"] and abs(gp["cutoff_hz"] - 10.0) < 1.0
+    assert d.verdict == "sensor_lag"
+    top = d.ranking[0]
+    assert top.detail.get("cutoff_from_gyro_path") == 1.0
+    assert top.params["sensor_lag"]["cutoff_hz"] == pytest.approx(gp["cutoff_hz"], rel=1e-6)
+    assert "Gyro path against the logged attitude" in d.summary()
+    assert "rotor_flapping" not in d.suggestion  # the two lags are told apart: no advice to separate them
