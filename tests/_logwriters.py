@@ -50,6 +50,7 @@ SIDD = ("SIDD", "Qfffffffff", "TimeUS,Time,Targ,F,Gx,Gy,Gz,Ax,Ay,Az")
 UNIT = ("UNIT", "QbZ", "TimeUS,Id,Label")  # AP_Logger: unit id character -> unit
 FMTU = ("FMTU", "QBNN", "TimeUS,FmtType,UnitIds,MultIds")  # per-column unit ids of a type
 RATE = ("RATE", "Qfffffffffffff", "TimeUS,RDes,R,ROut,PDes,P,POut,YDes,Y,YOut,ADes,A,AOut,AOutSlew")
+ATT = ("ATT", "QffffffffB", "TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw,ErrRP,ErrYaw,AEKF")  # deg
 
 
 class DataFlashWriter:

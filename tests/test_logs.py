@@ -17,6 +17,7 @@ pytest.importorskip("pyulog")
 
 from _logwriters import (  # noqa: E402
     ACTUATOR_CONTROLS,
+    ATT,
     ANGULAR_VELOCITY,
     FMTU,
     RATE,
@@ -63,6 +64,14 @@ def p_deg(t):  # RATE.P, deg/s
     return -25.0 * np.sin(TAU * 0.5 * t)
 
 
+def roll_deg(t):  # ATT.Roll, deg
+    return 4.0 * np.sin(TAU * 0.6 * t)
+
+
+def pitch_deg(t):  # ATT.Pitch, deg
+    return -3.0 * np.cos(TAU * 0.4 * t)
+
+
 def targ(t):  # SIDD.Targ: differs from ROut, so the input choice shows
     return 0.05 * np.sin(TAU * 1.7 * t)
 
@@ -107,17 +116,20 @@ def write_dataflash(
     rate_format=RATE,
     sids_format=SIDS,
     with_rate=True,
+    att_every=None,
     seed=0,
 ) -> Path:
     """A System ID log: RATE every loop of ``rate_hz``, SIDD every ``sidd_every`` loops
     while in the mode, SIDS on entering it.  ``drop=(t0, t1)`` leaves RATE out there,
-    ``nan_at`` writes one NaN roll rate."""
+    ``nan_at`` writes one NaN roll rate; ``att_every`` logs ATT every that many loops."""
     rng = np.random.default_rng(seed)
     w = DataFlashWriter()
     for d in (sids_format, SIDD):
         w.define(*d)
     if with_rate:
         w.define(*rate_format)
+    if att_every:
+        w.define(*ATT)
     loops = np.arange(int(round(span[0] * rate_hz)), int(round(span[1] * rate_hz)))
     pending = sorted(runs, key=lambda r: r["start"])
     for k in loops:
@@ -145,6 +157,8 @@ def write_dataflash(
             if rate_format is not RATE:
                 values = {k: v for k, v in values.items() if k in rate_format[2].split(",")}
             w.write("RATE", **values)
+        if att_every and k % att_every == 0:
+            w.write("ATT", TimeUS=us, Roll=roll_deg(t), Pitch=pitch_deg(t))
         in_mode = any(r["start"] <= t < r["sidd_until"] for r in runs)
         if in_mode and k % sidd_every == 0:
             w.write("SIDD", TimeUS=us + 20, Targ=targ(t), Gx=gx_deg(t), Gy=gy_deg(t))
@@ -271,6 +285,22 @@ def test_metadata_says_source_input_and_resampling(logs):
     assert "linear interpolation" in meta["resampling"] and "200 Hz" in meta["resampling"]
     assert "SID_AXIS 10 (Mixer Roll)" in meta["segment"]
     assert "TimeUS" in meta["time"]
+
+
+def test_attitude_is_read_where_it_is_logged_fast_enough(logs, tmp_path):
+    """ATT at the loop rate: phi, theta (rad) on the grid; at a tenth of it, or absent: no
+    attitude columns, and the metadata says why."""
+    fast = load_ardupilot(write_dataflash(tmp_path / "att.bin", att_every=1), run=0)
+    assert fast.columns == ("time", "delta_lat", "delta_lon", "p", "q", "phi", "theta")
+    t = np.asarray(fast.time)
+    np.testing.assert_allclose(np.asarray(fast["phi"]), f32(roll_deg(t)).astype(float) * DEG, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(fast["theta"]), f32(pitch_deg(t)).astype(float) * DEG, rtol=1e-9, atol=1e-12)
+    assert fast.metadata["attitude"].startswith("ATT.Roll -> phi, ATT.Pitch -> theta")
+    slow = load_ardupilot(write_dataflash(tmp_path / "att_slow.bin", att_every=10), run=0)
+    assert "phi" not in slow.columns and "below the record's 200 Hz" in slow.metadata["attitude"]
+    assert "ATTITUDE_FAST" in slow.metadata["attitude"]
+    none = load_ardupilot(logs["exact"], run=0)
+    assert "phi" not in none.columns and none.metadata["attitude"].startswith("none (no ATT")
 
 
 def test_sids_segments(logs):

@@ -650,6 +650,12 @@ def load_ardupilot(
       rate, deg/s).
     * ``RATE``: ``ROut``, ``POut`` (roll and pitch rate-controller outputs to the mixer,
       normalised), ``R``, ``P`` (measured roll and pitch rate, deg/s).
+    * ``ATT`` (optional): ``Roll``, ``Pitch`` (deg), the attitude estimate, which integrates
+      the raw IMU rather than the filtered gyro the rate controller sees.  Where it is
+      logged at least as fast as the record's grid (``LOG_BITMASK`` with
+      ``ATTITUDE_FAST``), it is interpolated onto the grid as ``phi, theta`` (rad), and
+      ``jaxgwo diagnose`` reads the gyro filter against it; otherwise the metadata's
+      ``attitude`` says why it was left out.
 
     Args:
         path: the ``.bin`` file.
@@ -705,7 +711,7 @@ def load_ardupilot(
         needed.setdefault("RATE", []).extend(["R", "P"])
     else:
         needed.setdefault("SIDD", []).extend(["Gx", "Gy"])
-    optional = {"SIDS": ["Ax", "TFin", "TC", "TR", "TFout"], "SIDD": []}
+    optional = {"SIDS": ["Ax", "TFin", "TC", "TR", "TFout"], "SIDD": [], "ATT": ["Roll", "Pitch"]}
     if span is None:
         needed["SIDS"] = optional.pop("SIDS")
     log = _read_dataflash(p, needed, optional)
@@ -789,12 +795,44 @@ def load_ardupilot(
         metadata["log_warning"] = log.damage
     ordered = {c: values[c] for c in (*INPUT_NAMES, *OUTPUT_NAMES) if c in values}
     req = tuple(required) if required is not None else tuple(ordered)
+    attitude, metadata["attitude"] = _ardupilot_attitude(log, grid, max_gap, where)
+    ordered |= attitude
     hint = (
         " (input='targ' gives the excited channel only; input='mixer' gives both)"
         if input == "targ"
         else ""
     )
     return _record(grid, ordered, metadata, req, where, hint)
+
+
+def _ardupilot_attitude(log: _DataFlash, grid: np.ndarray, max_gap: float, where: str) -> tuple[dict, str]:
+    """``ATT.Roll, ATT.Pitch`` (deg) on ``grid`` as ``phi, theta`` (rad), with a note on
+    where they came from; none (and the note says why) where the log has no ``ATT``, logs
+    it slower than the grid (interpolating it up would invent what the gyro path reads),
+    or has a gap, a NaN or a backwards step in it over the segment."""
+    att = log.columns.get("ATT")
+    if att is None:
+        return {}, "none (no ATT messages with Roll and Pitch in the log)"
+    t = att["TimeUS"] * 1e-6
+    keep = (t >= grid[0] - 1.0) & (t <= grid[-1] + 1.0)
+    t = t[keep]
+    rate = 1.0 / float(np.median(np.diff(grid))) if grid.size > 1 else math.inf
+    if t.size < 2 or t[0] > grid[0] or t[-1] < grid[-1]:
+        return {}, "none (ATT does not cover the segment)"
+    try:
+        period = _check_stream("ATT", t, max_gap, where)
+        out = {}
+        for col, name in (("phi", "Roll"), ("theta", "Pitch")):
+            v = att[name][keep].astype(float)
+            if not np.all(np.isfinite(v)):
+                raise FlightDataError(f"ATT.{name} holds NaN or infinite values in the segment")
+            out[col] = np.interp(grid, t, v) * _DEG
+    except FlightDataError as err:
+        return {}, f"none (ATT left out: {err})"
+    if 1.0 / period < 0.9 * rate:
+        return {}, (f"none (ATT logged at {1.0 / period:.3g} Hz, below the record's {rate:.3g} Hz; log it at "
+                    "the loop rate, LOG_BITMASK with ATTITUDE_FAST, to read the gyro filter against it)")  # fmt: skip
+    return out, f"ATT.Roll -> phi, ATT.Pitch -> theta (deg converted to rad; ATT logged at {1.0 / period:.3g} Hz)"
 
 
 # -- PX4 ULog -----------------------------------------------------------------------------
