@@ -197,10 +197,11 @@ def _oracle(start_params, train_rec, val_rec, train_clean, val_clean, base=None,
 
 
 def simulate_cases(n_per_class: int, seed: int, workdir: str, r50_fraction: float,
-                   classes: tuple[str, ...] = CLASSES) -> list[str]:
+                   classes: tuple[str, ...] = CLASSES, attitude: bool = False) -> list[str]:
     """Phase 1: write every case's TRAIN/VAL CSVs and the separate key file.  ``classes``
     (development runs only) keeps the cases of those classes from the full draw, so a case
-    is the same whichever subset it is simulated in."""
+    is the same whichever subset it is simulated in.  ``attitude`` logs the estimated
+    attitude as well (``phi, theta``); every other column is the same as without it."""
     import equinox as eqx
     import jax
 
@@ -237,8 +238,8 @@ def simulate_cases(n_per_class: int, seed: int, workdir: str, r50_fraction: floa
         va_true = simulate(draw.plant, exc_va, k_va, sample_rate_hz=FS, effects=draw.effects, hold=hold)
         d = os.path.join(workdir, f"case_{i:03d}")
         os.makedirs(d, exist_ok=True)
-        save_record(tr.to_record(), os.path.join(d, "train.csv"))
-        save_record(va.to_record(), os.path.join(d, "val.csv"))
+        save_record(tr.to_record(attitude=attitude), os.path.join(d, "train.csv"))
+        save_record(va.to_record(attitude=attitude), os.path.join(d, "val.csv"))
         np.save(os.path.join(workdir, f"truth_{i:03d}.npy"), np.asarray(va_true.rate_clean[:, 0]))
         params = {}
         exercised = None
@@ -446,7 +447,8 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
     if args.reuse:
         sub = f"--classes {args.classes} " if len(classes) < len(CLASSES) else ""
         L.append(f"`python benchmarks/blind_diagnosis.py --seed {args.seed} --cases-per-effect {args.cases_per_effect} "
-                 f"--r50-fraction {args.r50_fraction:g} {sub}--simulate-only --workdir W`, then")  # fmt: skip
+                 f"--r50-fraction {args.r50_fraction:g} {sub}{'--attitude ' if args.attitude else ''}"
+                 "--simulate-only --workdir W`, then")  # fmt: skip
         L.append("")
     L.append(f"`python benchmarks/blind_diagnosis.py {' '.join(sys.argv[1:])}`".replace("  ", " "))
     L.append("")
@@ -461,8 +463,10 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
              "0.45-0.85 of the high sweep's amplitude, rate limits 0.3-0.8 of the largest servo rate it asks for, "
              "structural modes between 8 Hz and the sweep's top frequency; `_acting`), gusts 0.02-0.12 rad/s^2, "
              f"SNR 25-40 dB; TRAIN two 25 s lateral sweeps 0.3-({F_HI_HZ[0]:g}..{F_HI_HZ[1]:g}) Hz at amplitudes "
-             "differing x2-3 (high 0.12-0.3) with off-axis pilot activity; VAL 24 s of 3-2-1-1s and a doublet. "
-             "The diagnosis sees only the CSVs.")  # fmt: skip
+             "differing x2-3 (high 0.12-0.3) with off-axis pilot activity; VAL 24 s of 3-2-1-1s and a doublet"
+             + ("; the records log the estimated attitude as well (`--attitude`: phi, theta, the raw gyro "
+                "integrated, so the diagnosis reads the gyro path)" if args.attitude else "")
+             + ". The diagnosis sees only the CSVs.")  # fmt: skip
     L.append("")
     L.append("| measure | value | target |")
     L.append("|---|---|---|")
@@ -638,6 +642,8 @@ def main() -> int:
     ap.add_argument("--classes", default=",".join(CLASSES),
                     help="development runs: simulate only the cases of these classes (comma-separated) from the full draw")
     ap.add_argument("--simulate-only", action="store_true", help="write the cases and the key, then stop")
+    ap.add_argument("--attitude", action="store_true",
+                    help="log the estimated attitude (phi, theta) in the records as well; the other columns are unchanged")
     args = ap.parse_args()
     if args.quick:
         args.cases_per_effect = 1
@@ -668,13 +674,14 @@ def main() -> int:
     os.makedirs(args.out, exist_ok=True)
     print(f"workdir {workdir}", flush=True)
     t0 = time.perf_counter()
-    draw = {"seed": args.seed, "cases_per_effect": args.cases_per_effect, "r50_fraction": args.r50_fraction}
+    draw = {"seed": args.seed, "cases_per_effect": args.cases_per_effect, "r50_fraction": args.r50_fraction,
+            "attitude": args.attitude}
     draw_path = os.path.join(workdir, "draw.json")
     if args.reuse:
         # the report is labelled with these arguments: they must be the ones the cases were drawn with
         if os.path.exists(draw_path):
             with open(draw_path) as f:
-                made = json.load(f)
+                made = {"attitude": False} | json.load(f)  # workdirs from before --attitude logged none
             wrong = {k: (made.get(k), v) for k, v in draw.items() if made.get(k) != v}
             args.classes = ",".join(made.get("classes", CLASSES))  # the report names the classes drawn
             if wrong:
@@ -688,7 +695,7 @@ def main() -> int:
             dirs = [os.path.join(workdir, name) for name in json.load(f)]  # only the case names are read here
     else:
         classes = tuple(args.classes.split(","))
-        dirs = simulate_cases(args.cases_per_effect, args.seed, workdir, args.r50_fraction, classes)
+        dirs = simulate_cases(args.cases_per_effect, args.seed, workdir, args.r50_fraction, classes, args.attitude)
         with open(draw_path, "w") as f:
             json.dump(draw | {"classes": list(classes)}, f)
         if args.simulate_only:
