@@ -148,6 +148,7 @@ ANGULAR_VELOCITY = [
     ("float[3]", "xyz_derivative"),
 ]
 TORQUE_SETPOINT = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"), ("float[3]", "xyz")]
+ATTITUDE = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"), ("float[4]", "q")]  # msg/VehicleAttitude.msg
 ACTUATOR_CONTROLS = [
     ("uint64_t", "timestamp"),
     ("uint64_t", "timestamp_sample"),

@@ -17,8 +17,9 @@ pytest.importorskip("pyulog")
 
 from _logwriters import (  # noqa: E402
     ACTUATOR_CONTROLS,
-    ATT,
     ANGULAR_VELOCITY,
+    ATT,
+    ATTITUDE,
     FMTU,
     RATE,
     SIDD,
@@ -166,9 +167,10 @@ def write_dataflash(
     return path
 
 
-def write_ulog(path: Path, *, old_firmware=False, span=(2.0, 8.0), rate_hz=250.0, gap=None) -> Path:
+def write_ulog(path: Path, *, old_firmware=False, span=(2.0, 8.0), rate_hz=250.0, gap=None, att_every=None) -> Path:
     """A PX4 log: angular velocity (timestamp_sample = t) and the torque setpoint (or
-    actuator_controls_0), both at ``rate_hz``; ``gap=(t0, t1)`` drops the gyro there."""
+    actuator_controls_0), both at ``rate_hz``; ``gap=(t0, t1)`` drops the gyro there;
+    ``att_every``: vehicle_attitude every that many samples (roll_deg, pitch_deg, no yaw)."""
     u = ULogWriter(start_us=1_000_000)
     u.info("sys_name", "PX4")
     u.topic("vehicle_angular_velocity", ANGULAR_VELOCITY)
@@ -176,6 +178,8 @@ def write_ulog(path: Path, *, old_firmware=False, span=(2.0, 8.0), rate_hz=250.0
         u.topic("actuator_controls_0", ACTUATOR_CONTROLS)
     else:
         u.topic("vehicle_torque_setpoint", TORQUE_SETPOINT)
+    if att_every:
+        u.topic("vehicle_attitude", ATTITUDE)
     for k in range(int(round(span[0] * rate_hz)), int(round(span[1] * rate_hz))):
         us = int(round(k * 1e6 / rate_hz))
         t = us * 1e-6
@@ -187,6 +191,10 @@ def write_ulog(path: Path, *, old_firmware=False, span=(2.0, 8.0), rate_hz=250.0
                 xyz_0=r_deg(t) * DEG,
                 xyz_1=p_deg(t) * DEG,
             )
+        if att_every and k % att_every == 0:
+            hr, hp = roll_deg(t) * DEG / 2, pitch_deg(t) * DEG / 2  # ZYX Euler, yaw 0, as a quaternion
+            u.write("vehicle_attitude", timestamp=us + 500, timestamp_sample=us, q_0=np.cos(hr) * np.cos(hp),
+                    q_1=np.sin(hr) * np.cos(hp), q_2=np.cos(hr) * np.sin(hp), q_3=-np.sin(hr) * np.sin(hp))
         if old_firmware:
             u.write(
                 "actuator_controls_0",
@@ -536,6 +544,18 @@ def test_px4_round_trip(logs):
     assert "vehicle_angular_velocity.timestamp_sample" in meta["time"]
     win = load_px4(logs["ulog"], window=(3.0, 4.0))
     assert win.n_samples == 251 and float(win.time[0]) == pytest.approx(3.0)
+
+
+def test_px4_attitude_from_the_quaternion(tmp_path):
+    fast = load_px4(write_ulog(tmp_path / "att.ulg", att_every=1))
+    assert fast.columns == ("time", "delta_lat", "delta_lon", "p", "q", "phi", "theta")
+    t = np.asarray(fast.time)
+    np.testing.assert_allclose(np.asarray(fast["phi"]), roll_deg(t) * DEG, rtol=0, atol=1e-6)  # float32 q
+    np.testing.assert_allclose(np.asarray(fast["theta"]), pitch_deg(t) * DEG, rtol=0, atol=1e-6)
+    assert "vehicle_attitude.q -> phi, theta" in fast.metadata["attitude"]
+    slow = load_px4(write_ulog(tmp_path / "att_slow.ulg", att_every=5))
+    assert "phi" not in slow.columns and "SDLOG_PROFILE" in slow.metadata["attitude"]
+    assert load_px4(write_ulog(tmp_path / "noatt.ulg")).metadata["attitude"].startswith("none (no vehicle_attitude")
 
 
 def test_px4_old_firmware_actuator_controls(tmp_path):

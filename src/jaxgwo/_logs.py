@@ -806,38 +806,47 @@ def load_ardupilot(
 
 
 def _ardupilot_attitude(log: _DataFlash, grid: np.ndarray, max_gap: float, where: str) -> tuple[dict, str]:
-    """``ATT.Roll, ATT.Pitch`` (deg) on ``grid`` as ``phi, theta`` (rad), with a note on
-    where they came from; none (and the note says why) where the log has no ``ATT``, logs
-    it slower than the grid (interpolating it up would invent what the gyro path reads),
-    or has a gap, a NaN or a backwards step in it over the segment."""
+    """``ATT.Roll, ATT.Pitch`` (deg) on ``grid`` as ``phi, theta`` (rad) with a note on where
+    they came from, or none and why (:func:`_attitude_on_grid`)."""
     att = log.columns.get("ATT")
     if att is None:
         return {}, "none (no ATT messages with Roll and Pitch in the log)"
-    t = att["TimeUS"] * 1e-6
+    return _attitude_on_grid("ATT", att["TimeUS"] * 1e-6, att["Roll"] * _DEG, att["Pitch"] * _DEG, grid, max_gap,
+                             where, "ATT.Roll -> phi, ATT.Pitch -> theta (deg converted to rad",
+                             "LOG_BITMASK with ATTITUDE_FAST")  # fmt: skip
+
+
+def _attitude_on_grid(message: str, t: np.ndarray, roll: np.ndarray, pitch: np.ndarray, grid: np.ndarray,
+                      max_gap: float, where: str, source: str, how_faster: str) -> tuple[dict, str]:
+    """An attitude estimate (rad) interpolated onto the record's ``grid`` as ``phi, theta``,
+    with a note saying where it came from; none, and the note says why, where it does not
+    cover the grid, has a gap, a NaN or a backwards step there, or is logged slower than
+    the grid (interpolating it up would invent the high frequencies the gyro path reads;
+    ``how_faster`` says how to log it faster).  Optional data: left out, never an error."""
     keep = (t >= grid[0] - 1.0) & (t <= grid[-1] + 1.0)
-    t = t[keep]
+    t, roll, pitch = t[keep], roll[keep], pitch[keep]
+    if t.size < 2:
+        return {}, f"none ({message} does not cover the segment)"
     rate = 1.0 / float(np.median(np.diff(grid))) if grid.size > 1 else math.inf
-    if t.size < 2 or t[0] > grid[0] or t[-1] < grid[-1]:
-        return {}, "none (ATT does not cover the segment)"
     try:
-        period = _check_stream("ATT", t, max_gap, where)
-        out = {}
-        for col, name in (("phi", "Roll"), ("theta", "Pitch")):
-            v = att[name][keep].astype(float)
-            if not np.all(np.isfinite(v)):
-                raise FlightDataError(f"ATT.{name} holds NaN or infinite values in the segment")
-            out[col] = np.interp(grid, t, v) * _DEG
+        period = _check_stream(message, t, max_gap, where)
     except FlightDataError as err:
-        return {}, f"none (ATT left out: {err})"
+        return {}, f"none ({message} left out: {err})"
     if 1.0 / period < 0.9 * rate:
-        return {}, (f"none (ATT logged at {1.0 / period:.3g} Hz, below the record's {rate:.3g} Hz; log it at "
-                    "the loop rate, LOG_BITMASK with ATTITUDE_FAST, to read the gyro filter against it)")  # fmt: skip
-    return out, f"ATT.Roll -> phi, ATT.Pitch -> theta (deg converted to rad; ATT logged at {1.0 / period:.3g} Hz)"
+        return {}, (f"none ({message} logged at {1.0 / period:.3g} Hz, below the record's {rate:.3g} Hz; log it "
+                    f"at the gyro's rate ({how_faster}) to read the gyro filter against it)")  # fmt: skip
+    if t[0] > grid[0] + 1e-6 or t[-1] < grid[-1] - 1e-6:  # timestamps are whole microseconds
+        return {}, f"none ({message} does not cover the segment)"
+    if not (np.all(np.isfinite(roll)) and np.all(np.isfinite(pitch))):
+        return {}, f"none ({message} holds NaN or infinite values in the segment)"
+    out = {"phi": np.interp(grid, t, roll), "theta": np.interp(grid, t, pitch)}
+    return out, f"{source}; {message} logged at {1.0 / period:.3g} Hz)"
 
 
 # -- PX4 ULog -----------------------------------------------------------------------------
 
 _PX4_OUTPUT = ("vehicle_angular_velocity", {"p": "xyz[0]", "q": "xyz[1]"})
+_PX4_ATTITUDE = "vehicle_attitude"
 _PX4_INPUTS = {
     "torque_setpoint": ("vehicle_torque_setpoint", {"delta_lat": "xyz[0]", "delta_lon": "xyz[1]"}),
     "actuator_controls": (
@@ -883,6 +892,11 @@ def load_px4(
     * ``vehicle_angular_velocity``: ``xyz[0]``, ``xyz[1]`` (body roll and pitch rate,
       rad/s) -> ``p``, ``q``; timed by ``timestamp_sample`` (when the gyro sampled), or
       ``timestamp`` where the topic lacks it.
+    * ``vehicle_attitude`` (optional): ``q[0..3]`` (the estimator's attitude quaternion,
+      Hamilton, body to NED; it integrates the raw IMU, not the filtered angular velocity
+      above) -> ``phi, theta`` (rad, roll and pitch of the ZYX Euler angles), where it is
+      logged at least as fast as the grid; otherwise the metadata's ``attitude`` says why
+      it was left out.
     * ``vehicle_torque_setpoint``: ``xyz[0]``, ``xyz[1]`` (normalised roll and pitch
       torque demand, -1..1) -> ``delta_lat``, ``delta_lon``; or, on firmware before
       v1.14, ``actuator_controls_0``: ``control[0]``, ``control[1]`` (normalised roll and
@@ -914,7 +928,7 @@ def load_px4(
     where = str(p)
     _file_size(p)
     candidates = list(_PX4_INPUTS) if input == "auto" else [input]
-    topics = [_PX4_OUTPUT[0], *(_PX4_INPUTS[c][0] for c in candidates)]
+    topics = [_PX4_OUTPUT[0], *(_PX4_INPUTS[c][0] for c in candidates), _PX4_ATTITUDE]
     ulog = _parse_ulog(ULog, p, topics)
 
     def datasets(u) -> dict[str, dict[str, np.ndarray]]:
@@ -990,7 +1004,25 @@ def load_px4(
         metadata["log_warning"] = "pyulog found corruption in the file and skipped over it"
     ordered = {c: values[c] for c in (*INPUT_NAMES, *OUTPUT_NAMES)}
     req = tuple(required) if required is not None else INPUT_NAMES + OUTPUT_NAMES
+    attitude, metadata["attitude"] = _px4_attitude(data.get(_PX4_ATTITUDE), grid, max_gap, where)
+    ordered |= attitude
     return _record(grid, ordered, metadata, req, where, "")
+
+
+def _px4_attitude(cols: Mapping[str, np.ndarray] | None, grid: np.ndarray, max_gap: float,
+                  where: str) -> tuple[dict, str]:
+    """``vehicle_attitude.q`` on ``grid`` as ``phi, theta`` (rad), or none and why."""
+    names = [f"q[{i}]" for i in range(4)]
+    if cols is None or not all(n in cols for n in names):
+        return {}, f"none (no {_PX4_ATTITUDE} topic with q[0..3] in the log)"
+    clock = "timestamp_sample" if "timestamp_sample" in cols else "timestamp"
+    q0, q1, q2, q3 = (np.asarray(cols[n], dtype=np.float64) for n in names)
+    roll = np.unwrap(np.arctan2(2.0 * (q0 * q1 + q2 * q3), 1.0 - 2.0 * (q1 * q1 + q2 * q2)))
+    pitch = np.arcsin(np.clip(2.0 * (q0 * q2 - q3 * q1), -1.0, 1.0))
+    t = np.asarray(cols[clock], dtype=np.float64) * 1e-6
+    return _attitude_on_grid(_PX4_ATTITUDE, t, roll, pitch, grid, max_gap, where,
+                             f"{_PX4_ATTITUDE}.q -> phi, theta (roll and pitch of the quaternion, rad; timed by {clock}",
+                             "the logger's high-rate profile, SDLOG_PROFILE")  # fmt: skip
 
 
 # -- the dispatcher -----------------------------------------------------------------------
