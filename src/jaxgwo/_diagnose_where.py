@@ -410,8 +410,8 @@ def gyro_path(
     pass ``coherence_threshold``.  Both are estimated with one window,
     ``window_lengths_s`` (default two periods of the lowest frequency of ``w``, the
     longest a composite estimate uses).  The cutoff is fitted on a log grid over
-    ``cutoff_grid_hz`` and refined; its range is where :math:`\chi^2` stays within 1 of
-    the minimum.
+    ``cutoff_grid_hz`` and refined; its range is where :math:`\chi^2` stays within
+    ``scale`` of the minimum (:class:`GyroPath`).
     """
     if not attitude_pairs:
         return GyroPath(False, note="the records log no attitude for this channel")
@@ -454,7 +454,7 @@ def gyro_path(
     scale = max(1.0, c_best / max(2 * n - 2, 1))
     lo, hi = _chi2_range(lambda c: _lag_chi2(f, ratio, err, c), grid, c2, best, c_best + scale, c_null)
     p = float(scipy.stats.chi2.sf(max(c_null - c_best, 0.0) / scale, 1))
-    shown = f"{best:.3g} Hz ({lo:.3g}-{hi:.3g})" if math.isfinite(best) else "none"
-    note = (f"gyro path against the logged attitude ({n} frequencies, {f.min():.2g}-{f.max():.2g} Hz): "
-            f"first-order filter {shown}, p = {p:.2g} against none")  # fmt: skip
+    shown = (f"a first-order filter at {best:.3g} Hz ({lo:.3g}-{hi:.3g}), p = {p:.2g} against none"
+             if math.isfinite(best) else f"no first-order filter (none fits better below {grid[-1]:.3g} Hz)")  # fmt: skip
+    note = f"gyro path against the logged attitude ({n} frequencies, {f.min():.2g}-{f.max():.2g} Hz): {shown}"
     return GyroPath(True, best, (lo, hi), p, scale, n, note, f, ratio, err)
