@@ -39,8 +39,12 @@ def test_simulate_writes_a_valid_csv(tmp_path, capsys):
 def test_simulate_r50_npz(tmp_path):
     out = tmp_path / "r50.npz"
     assert main(["simulate", "--plant", "r50", "--excitation", "multisine", "--duration", "20",
-                 "--f-start", "0.5", "--f-stop", "5", "--out", str(out)]) == 0
+                 "--f-start", "0.5", "--f-stop", "5", "--attitude", "--out", str(out)]) == 0
     rec = load_record(out)
+    # --attitude logs phi, theta: the roll attitude follows the integrated roll rate
+    t, phi, p = (np.asarray(rec[c]) for c in ("time", "phi", "p"))
+    dphi = np.gradient(phi, t)
+    assert np.corrcoef(dphi, p)[0, 1] > 0.99
     assert rec.metadata["hold_loop"] == "on"
     assert "detection lines" in rec.metadata["segment_1"]
     assert np.all(np.isfinite(np.asarray(rec["p"])))

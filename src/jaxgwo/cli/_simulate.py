@@ -68,6 +68,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--hold", choices=("auto", "on", "off"), default="auto",
                    help="pilot hold loop (auto: on for r50, off for paper)")
     p.add_argument("--truth", action="store_true", help="also write p_true, q_true, exc_*, servo_* columns")
+    p.add_argument("--attitude", action="store_true",
+                   help="also log the estimated attitude phi, theta (rad; the raw gyro integrated, which "
+                        "diagnose reads the gyro filter against)")
     p.add_argument("--default-dataset", metavar="DIR",
                    help="write the embedded default dataset (an identification and a "
                         "validation CSV per channel) into DIR instead")
@@ -201,6 +204,6 @@ def run(args) -> int:
                       f"T {args.gust_time_constant:g} s",
         "noise": f"white gyro noise {args.noise_std:g} rad/s rms, snr_db {args.snr_db:g}",
     }  # fmt: skip
-    path = save_record(res.to_record(meta, truth=args.truth), args.out)
+    path = save_record(res.to_record(meta, truth=args.truth, attitude=args.attitude), args.out)
     print(f"wrote {os.fspath(path)} ({n} samples at {fs:g} Hz; effects: {effects.describe()})")
     return 0
