@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from jaxgwo._diagnose import DiagnoseSettings, _gyro_path_order, diagnose, separation_suggestion
+from jaxgwo._diagnose import DiagnoseSettings, _gyro_path_order, diagnose, plot_diagnosis, separation_suggestion
 from jaxgwo._diagnose_where import GyroPath, gyro_path
 from jaxgwo._diagnose_which import CandidateScore
 from jaxgwo._effects import EffectSet
@@ -179,7 +179,7 @@ def test_no_advice_to_separate_the_lags_once_the_gyro_path_has():
 # -- end to end ----------------------------------------------------------------------------------
 
 
-def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter():
+def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter(tmp_path):
     """A 10 Hz gyro filter on the paper plant, TRAIN two sweeps with the attitude logged: the
     gyro path finds the filter, the sensor_lag candidate is fitted at its cutoff and ranked
     first, and the JSON report carries the gyro path."""
@@ -208,3 +208,6 @@ def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter():
     assert top.params["sensor_lag"]["cutoff_hz"] == pytest.approx(gp["cutoff_hz"], rel=1e-6)
     assert "Gyro path against the logged attitude" in d.summary()
     assert "rotor_flapping" not in d.suggestion  # the two lags are told apart: no advice to separate them
+    png = tmp_path / "d.png"
+    plot_diagnosis(d, str(png))  # with the gyro path's row
+    assert png.stat().st_size > 0

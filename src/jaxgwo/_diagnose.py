@@ -1223,7 +1223,8 @@ def diagnose(
 
 def plot_diagnosis(d: Diagnosis, path: str) -> None:
     """Bode mismatch with its bounds and the flagged bands shaded; residual auto- and
-    input cross-correlation; before/after overlays on VAL; the candidates' held-out gains."""
+    input cross-correlation; before/after overlays on VAL; the candidates' held-out gains;
+    where the records log an attitude, the gyro path with its fitted filter."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -1232,7 +1233,8 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
     from ._atomic import atomic_savefig
 
     fm = d.mismatch
-    fig, ax = plt.subplots(3, 2, figsize=(12.0, 11.0))
+    g = d.gyro
+    fig, ax = plt.subplots(4 if g.tested else 3, 2, figsize=(12.0, 14.5 if g.tested else 11.0))
     for a, err, bound, lab in ((ax[0, 0], fm.magnitude_error_db, fm.magnitude_bound_db, "magnitude error (dB)"),
                                (ax[0, 1], fm.phase_error_deg, fm.phase_bound_deg, "phase error (deg)")):  # fmt: skip
         a.semilogx(fm.f_hz, err, "k.-", ms=3, label="model - measured")
@@ -1266,6 +1268,19 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
     ax[2, 1].barh(names[::-1], gains[::-1], color=colors[::-1])
     ax[2, 1].set_xlabel("fraction of held-out R^2 gap closed")
     ax[2, 1].set_title(f"verdict: {d.verdict}", fontsize=10)
+    if g.tested:
+        fit = 1.0 / (1.0 + 1j * g.f_hz / g.cutoff_hz) if math.isfinite(g.cutoff_hz) else np.ones_like(g.ratio)
+        gain = np.exp(np.sum(np.log(np.abs(g.ratio / fit)) / g.error**2) / np.sum(1.0 / g.error**2))
+        label = f"first-order filter {g.cutoff_hz:.3g} Hz" if math.isfinite(g.cutoff_hz) else "no filter"
+        for a, data, model, lab in ((ax[3, 0], 20 * np.log10(np.abs(g.ratio)), 20 * np.log10(np.abs(gain * fit)),
+                                     "gyro path |p / (s phi)| (dB)"),
+                                    (ax[3, 1], np.rad2deg(np.angle(g.ratio)), np.rad2deg(np.angle(fit)),
+                                     "gyro path phase (deg)")):  # fmt: skip
+            a.semilogx(g.f_hz, data, "k.", ms=3, label="rate over attitude rate")
+            a.semilogx(g.f_hz, model, "tab:red", label=label)
+            a.set_xlabel("frequency (Hz)")
+            a.set_ylabel(lab)
+            a.legend(fontsize=8)
     fig.suptitle(f"jaxgwo diagnose, {d.channel} channel")
     fig.tight_layout()
     atomic_savefig(fig, path)
