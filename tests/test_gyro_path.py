@@ -108,6 +108,14 @@ def test_gyro_path_recovers_a_first_order_filter(cutoff_hz):
     assert not g.refutes(g.cutoff_hz) and g.refutes(3.0 * cutoff_hz) and g.refutes(math.inf)
 
 
+def test_an_attitude_of_the_other_sign_reads_the_same_filter():
+    rates, atts = _lsim_pairs(12.0, noise=0.01)
+    g = gyro_path(rates, atts, FS, W)
+    flipped = gyro_path(rates, [(u, -a) for u, a in atts], FS, W)
+    assert flipped.cutoff_hz == pytest.approx(g.cutoff_hz, rel=1e-9) and "sign flipped" in flipped.note
+    assert "sign flipped" not in g.note
+
+
 def test_gyro_path_without_a_filter_finds_none_and_refutes_a_low_cutoff():
     rates, atts = _lsim_pairs(None, noise=0.01)
     g = gyro_path(rates, atts, FS, W)

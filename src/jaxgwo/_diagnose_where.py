@@ -407,7 +407,9 @@ def gyro_path(
     (the attitude's enters as a rate by central differences, their response divided out);
     its normalised random error is :math:`\sqrt{\varepsilon_p^2 + \varepsilon_\phi^2}`
     plus ``bias_floor`` (as in :func:`amplitude_dependence`), on the points where both
-    pass ``coherence_threshold``.  Both are estimated with one window,
+    pass ``coherence_threshold``.  An attitude of the other sign convention (``R`` near
+    -1 over the lowest quarter of the points) is read with its sign flipped, and the
+    note says so.  Both are estimated with one window,
     ``window_lengths_s`` (default two periods of the lowest frequency of ``w``, the
     longest a composite estimate uses).  The cutoff is fitted on a log grid over
     ``cutoff_grid_hz`` and refined; its range is where :math:`\chi^2` stays within
@@ -436,6 +438,9 @@ def gyro_path(
                         note=f"only {int(m.sum())} frequencies pass in both the rate and the attitude response")  # fmt: skip
     wm = np.asarray(w, float)[m]
     ratio = np.asarray(rp.H)[m] / np.asarray(ra.H)[m] * np.sinc(wm * dt / np.pi)  # sin(w dt)/(w dt)
+    # an attitude logged with the other sign convention reads R near -1 at low frequency
+    flipped = bool(np.median(np.cos(np.angle(ratio[: max(3, ratio.size // 4)]))) < 0.0)
+    ratio = -ratio if flipped else ratio
     err = np.sqrt(np.asarray(rp.random_error)[m] ** 2 + np.asarray(ra.random_error)[m] ** 2 + bias_floor**2)
     f = wm / (2.0 * np.pi)
     grid = np.geomspace(*cutoff_grid_hz, 121)
@@ -456,5 +461,6 @@ def gyro_path(
     p = float(scipy.stats.chi2.sf(max(c_null - c_best, 0.0) / scale, 1))
     shown = (f"a first-order filter at {best:.3g} Hz ({lo:.3g}-{hi:.3g}), p = {p:.2g} against none"
              if math.isfinite(best) else f"no first-order filter (none fits better below {grid[-1]:.3g} Hz)")  # fmt: skip
-    note = f"gyro path against the logged attitude ({n} frequencies, {f.min():.2g}-{f.max():.2g} Hz): {shown}"
+    sign = ", its sign flipped" if flipped else ""
+    note = f"gyro path against the logged attitude ({n} frequencies, {f.min():.2g}-{f.max():.2g} Hz{sign}): {shown}"
     return GyroPath(True, best, (lo, hi), p, scale, n, note, f, ratio, err)
