@@ -530,11 +530,7 @@ def _gyro_path(records: Sequence[FlightRecord], channel: str, pairs, sample_rate
     name = ATTITUDE_COLUMNS[channel]
     if not all(name in r.columns for r in records):
         return GyroPath(False, note=f"the identification records log no attitude {name!r}: the gyro path is not tested")
-    att = []
-    for rec, (_t, u, _o, _y) in zip(records, pairs):
-        a = np.asarray(rec[name], float)
-        n0 = max(1, min(int(round(0.5 * float(rec.sample_rate))), a.size // 10))
-        att.append((u, a - float(np.mean(a[:n0]))))
+    att = [(u, _relative_to_trim(rec[name], rec.sample_rate)) for rec, (_t, u, _o, _y) in zip(records, pairs)]
     return gyro_path([(u, y) for _t, u, _o, y in pairs], att, sample_rate_hz, w, coherence_threshold=coherence_threshold)
 
 
@@ -773,11 +769,16 @@ def _time_pairs(records: Sequence[FlightRecord], channel: str, settings: Identif
     for rec in records:
         u, y = channel_signals(rec, channel)
         t = np.asarray(rec.time, float) - float(rec.time[0])
-        n0 = max(1, min(int(round(0.5 * float(rec.sample_rate))), u.size // 10))
-        trim = lambda x: np.asarray(x, float) - float(np.mean(np.asarray(x, float)[:n0]))  # noqa: E731
-        uo = trim(rec[off_name]) if off_name in rec.columns else None
-        out.append((t, trim(u), uo, trim(y)))
+        uo = _relative_to_trim(rec[off_name], rec.sample_rate) if off_name in rec.columns else None
+        out.append((t, _relative_to_trim(u, rec.sample_rate), uo, _relative_to_trim(y, rec.sample_rate)))
     return out
+
+
+def _relative_to_trim(x, sample_rate: float) -> np.ndarray:
+    """``x`` less its trim value: the mean of its first 0.5 s, at most a tenth of the record."""
+    x = np.asarray(x, float)
+    n0 = max(1, min(int(round(0.5 * float(sample_rate))), x.size // 10))
+    return x - float(np.mean(x[:n0]))
 
 
 _DELAY_GRID_S = np.arange(0.0, _Z_HI[0] + 1e-9, 0.005)
@@ -1269,10 +1270,9 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
     ax[2, 1].set_xlabel("fraction of held-out R^2 gap closed")
     ax[2, 1].set_title(f"verdict: {d.verdict}", fontsize=10)
     if g.tested:
-        fit = 1.0 / (1.0 + 1j * g.f_hz / g.cutoff_hz) if math.isfinite(g.cutoff_hz) else np.ones_like(g.ratio)
-        gain = np.exp(np.sum(np.log(np.abs(g.ratio / fit)) / g.error**2) / np.sum(1.0 / g.error**2))
+        fit = g.model()
         label = f"first-order filter {g.cutoff_hz:.3g} Hz" if math.isfinite(g.cutoff_hz) else "no filter"
-        for a, data, model, lab in ((ax[3, 0], 20 * np.log10(np.abs(g.ratio)), 20 * np.log10(np.abs(gain * fit)),
+        for a, data, model, lab in ((ax[3, 0], 20 * np.log10(np.abs(g.ratio)), 20 * np.log10(np.abs(fit)),
                                      "gyro path |p / (s phi)| (dB)"),
                                     (ax[3, 1], np.rad2deg(np.angle(g.ratio)), np.rad2deg(np.angle(fit)),
                                      "gyro path phase (deg)")):  # fmt: skip

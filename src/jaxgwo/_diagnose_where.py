@@ -333,6 +333,12 @@ class GyroPath:
     ratio: np.ndarray = field(default_factory=lambda: np.zeros(0, complex), repr=False)
     error: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
 
+    def model(self, cutoff_hz: float | None = None) -> np.ndarray:
+        """The fitted ``g/(1 + j f/f_c)`` on :attr:`f_hz` at ``cutoff_hz`` (default the best;
+        ``inf``: none), its gain fitted as in :meth:`chi2`."""
+        lag, log_g = _lag_and_gain(self.f_hz, self.ratio, self.error, self.cutoff_hz if cutoff_hz is None else cutoff_hz)
+        return np.exp(log_g + lag)
+
     def chi2(self, cutoff_hz: float) -> float:
         r""":math:`\chi^2` of a gyro filter at ``cutoff_hz`` (``inf``: none), its gain fitted."""
         return _lag_chi2(self.f_hz, self.ratio, self.error, cutoff_hz)
@@ -350,14 +356,21 @@ class GyroPath:
         return bool(scipy.stats.chi2.sf(max(d, 0.0), 1) < alpha)
 
 
+def _lag_and_gain(f_hz: np.ndarray, ratio: np.ndarray, err: np.ndarray, cutoff_hz: float) -> tuple[np.ndarray, float]:
+    """``log(1/(1 + j f/f_c))`` (zero for ``inf``) and the log of the real gain ``g`` that
+    fits ``ratio`` best with it, in closed form: the error-weighted mean log magnitude left."""
+    x = f_hz / cutoff_hz if np.isfinite(cutoff_hz) else np.zeros_like(f_hz)
+    lag = -np.log1p(1j * x)
+    wts = 1.0 / err**2
+    return lag, float(np.sum(wts * (np.log(ratio) - lag).real) / np.sum(wts))
+
+
 def _lag_chi2(f_hz: np.ndarray, ratio: np.ndarray, err: np.ndarray, cutoff_hz: float) -> float:
     """Weighted squared error of ``log ratio`` against ``log(g / (1 + j f/f_c))``, the real
     gain ``g`` in closed form (magnitude in nepers and phase in radians share the error)."""
-    x = f_hz / cutoff_hz if np.isfinite(cutoff_hz) else np.zeros_like(f_hz)
-    lag = -np.log1p(1j * x)
+    lag, log_g = _lag_and_gain(f_hz, ratio, err, cutoff_hz)
     d = np.log(ratio) - lag
     wts = 1.0 / err**2
-    log_g = np.sum(wts * d.real) / np.sum(wts)
     dm = d.real - log_g
     dp = np.angle(np.exp(1j * d.imag))  # the phase error wrapped to (-pi, pi]
     return float(np.sum(wts * (dm**2 + dp**2)))

@@ -235,18 +235,24 @@ def _gust_moment(x):
     return x["gust2"] + math.sqrt(3.0) * (x["gust1"] - x["gust2"])
 
 
-def _struct_out(x, plant, effects: EffectSet):
+def _mode_at_gyro(effects: EffectSet):
+    r"""What the structural mode's state adds at the gyro per unit of it,
+    :math:`2(\zeta_z - \zeta_p)\omega_n`: the mode
+    :math:`(s^2 + 2\zeta_z\omega_n s + \omega_n^2)/(s^2 + 2\zeta_p\omega_n s + \omega_n^2)` is
+    :math:`1 + 2(\zeta_z - \zeta_p)\omega_n s/(s^2 + 2\zeta_p\omega_n s + \omega_n^2)`, whose second
+    term is that times ``struct2`` for the rate and times ``struct1`` (its integral) for the attitude."""
     sm = effects.structural_mode
-    wn = 2.0 * jnp.pi * sm.freq_hz
-    return plant.body_rates(x["plant"]) + 2.0 * (sm.zeta_z - sm.zeta_p) * wn * x["struct2"]
+    return 2.0 * (sm.zeta_z - sm.zeta_p) * (2.0 * jnp.pi * sm.freq_hz)
+
+
+def _struct_out(x, plant, effects: EffectSet):
+    return plant.body_rates(x["plant"]) + _mode_at_gyro(effects) * x["struct2"]
 
 
 def _raw_gyro_attitude(x, plant, effects: EffectSet):
     """The attitude the raw gyro integrates to: the airframe's plus what the structural mode
     adds at the gyro (``struct1`` integrates ``struct2``), before any ``sensor_lag``."""
-    sm = effects.structural_mode
-    wn = 2.0 * jnp.pi * sm.freq_hz
-    return plant.attitude(x["plant"]) + 2.0 * (sm.zeta_z - sm.zeta_p) * wn * x["struct1"]
+    return plant.attitude(x["plant"]) + _mode_at_gyro(effects) * x["struct1"]
 
 
 def _derivative(x, cmd, white, swash_prev, plant, effects, hold, t_gust, floor):
