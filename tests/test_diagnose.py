@@ -271,6 +271,35 @@ def test_structure_box_reaches_a_pole_pair_beyond_the_resonance_box():
     assert all(abs(w[k] / v - 1.0) < 0.01 for k, v in (("freq_hz", freq), ("zeta_p", zp), ("zeta_z", zz)))
 
 
+def test_structure_box_reaches_down_to_a_flybars_coupled_flapping():
+    """A pole pair below the vocabulary's resonances (1.7 Hz, poles 0.2, zeros 0.7: the
+    coupled flapping a flybar airframe adds): the vocabulary's bottom (3 Hz) stops the
+    fit on that floor, the structure step's (``z_lo=_Z_LO_STRUCTURE``, 1 Hz) recovers the
+    pair on noise-free data, and it counts as the airframe's, not an effect's."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose import _airframe_pair
+    from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO, _Z_LO_STRUCTURE, fit_linear_candidates
+    from jaxgwo._effects import structural_mode_response
+    from jaxgwo._models import ParameterMap
+
+    freq, zp, zz = 1.7, 0.2, 0.7
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, freq, zp, zz))
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    key = jax.random.key(3)
+    kw = dict(wolves=10, iterations=25, z_hi=_Z_HI_STRUCTURE)
+    (floor,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], key, **kw)
+    (low,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], key, z_lo=_Z_LO_STRUCTURE, **kw)
+    f, w = floor.params["structural_mode"], low.params["structural_mode"]
+    assert f["freq_hz"] >= np.exp(_Z_LO[3]) - 1e-9
+    assert low.cost_J < 0.1 * floor.cost_J
+    assert all(abs(w[k] / v - 1.0) < 0.01 for k, v in (("freq_hz", freq), ("zeta_p", zp), ("zeta_z", zz)))
+    assert _airframe_pair(w, 1.0)  # complex zeros, but below every resonance of the vocabulary
+    assert not _airframe_pair({"freq_hz": 8.0, "zeta_p": 0.05, "zeta_z": 0.15}, 1.0)  # a resonance
+    assert _airframe_pair({"freq_hz": 8.0, "zeta_p": 0.5, "zeta_z": 3.0}, 1.0)  # real zeros
+
+
 def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch):
     """Each candidate's pack draws from its own key (``candidate_key``: the effects, in any
     order, and the profile point).  Refitted alone or beside other candidates, in either

@@ -100,6 +100,10 @@ _Z_NEUTRAL = np.array([0.0, math.log(100.0), 0.0, math.log(10.0), 0.0, 0.0])
 # the structure step's box (jaxgwo._diagnose): a pole pair the paper model lacks may be
 # damped well beyond the vocabulary's resonances and its zeros far beyond critical
 _Z_HI_STRUCTURE = np.r_[_Z_HI[:4], math.log(1.0), math.log(10.0)]
+# and it may lie below the vocabulary's resonances: a flybar airframe's coupled
+# lateral/longitudinal flapping is a pole pair at 1-3 Hz (the R-50's, Mettler 2003; a
+# seed-89 R-50 case fitted J 5.00 on the 3 Hz edge, 3.27 at 1.65 Hz)
+_Z_LO_STRUCTURE = np.r_[_Z_LO[:3], math.log(1.0), _Z_LO[4:]]
 
 
 def effect_params_from_z(name: str, z) -> dict[str, float]:
@@ -239,13 +243,13 @@ class LinearFit:
 def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                n_freq: int = 48) -> np.ndarray:
     """Points ``x`` of a profile of ``J`` over the structural mode's frequency, best ``J``
-    first.  A grid over the frequency (its whole box) and a few damping pairs (peaks and
+    first.  A grid over the frequency (its whole box ``[lo, hi]``) and a few damping pairs (peaks and
     notches, sharp and broad) starts at the paper parameters ``x_paper`` and the other
     effect coordinates ``z_other``; every point is then refined by :func:`_profile_lm`
     with its frequency held.  Refining matters: the nominal fit absorbs a mode into the
     servo damping (0.42 -> 0.31 seen), and at the nominal's paper parameters the true
     mode raises ``J`` (6.1 -> 13.5) where, refitted with them, it halves it (2.2)."""
-    f = np.linspace(_Z_LO[3], _Z_HI[3], n_freq)
+    f = np.linspace(lo[8], hi[8], n_freq)
     damp = [(0.03, 0.2), (0.05, 0.15), (0.02, 0.3), (0.1, 0.3), (0.2, 0.05), (0.3, 0.1)]
     rows = []
     for zp, zz in damp:
@@ -325,6 +329,7 @@ def fit_linear_candidates(
     dependence_factor: float = 1.0,
     effect_seed: np.ndarray | None = None,
     z_hi: np.ndarray | None = None,
+    z_lo: np.ndarray | None = None,
     held_z: Mapping[int, float] | None = None,
 ) -> list[LinearFit]:
     """Refit the paper model plus each tuple of frequency-domain effects on ``J``.
@@ -336,7 +341,9 @@ def fit_linear_candidates(
     (``sqrt(m / m_eff)``, as in :func:`jaxgwo._identify._dependence_corrected`).
     ``effect_seed`` (six effect coordinates ``z``) seeds the first wolf's active effect
     coordinates beside the nominal paper parameters (a :class:`DelayStart`'s delay).
-    ``z_hi`` replaces the top of the effect coordinates' box (default ``_Z_HI``).
+    ``z_hi`` and ``z_lo`` replace the top and bottom of the effect coordinates' box
+    (default ``_Z_HI`` and ``_Z_LO``; the structure step's is ``_Z_HI_STRUCTURE`` and
+    ``_Z_LO_STRUCTURE``).
     ``held_z`` maps effect coordinates to values they are held at (clipped to the box) in
     every candidate that has them (a gyro filter's cutoff measured against the attitude,
     :func:`jaxgwo._diagnose_where.gyro_path`).
@@ -351,22 +358,23 @@ def fit_linear_candidates(
     cand_keys = [jax.random.split(candidate_key(key, names)) for names in candidates]  # (init, run) each
     n_seed = max(2, wolves // 2)
     z_top = _Z_HI if z_hi is None else np.asarray(z_hi, float)
+    z_bot = _Z_LO if z_lo is None else np.asarray(z_lo, float)
     for i, names in enumerate(candidates):
         act = _active_mask(names)
         # the servo damping's box stays inside ZETA_S_RANGE even when the nominal fit ran to an edge
         x_c = x_nom.copy()
         x_c[4] = min(max(x_c[4], math.log(ZETA_S_RANGE[0]) + half), math.log(ZETA_S_RANGE[1]) - half)
-        lo = np.r_[x_c - half, np.where(act, _Z_LO, _Z_NEUTRAL)]
+        lo = np.r_[x_c - half, np.where(act, z_bot, _Z_NEUTRAL)]
         hi = np.r_[x_c + half, np.where(act, z_top, _Z_NEUTRAL + 1e-9)]
         for slot, v in (held_z or {}).items():
             if act[slot]:
-                lo[5 + slot] = min(max(v, _Z_LO[slot]), z_top[slot] - 1e-9)
+                lo[5 + slot] = min(max(v, z_bot[slot]), z_top[slot] - 1e-9)
                 hi[5 + slot] = lo[5 + slot] + 1e-9
         ku, kn = jax.random.split(cand_keys[i][0])
         u = np.asarray(jax.random.uniform(ku, (n_seed, 6), dtype=jnp.float64))
-        z0 = np.where(act, _Z_LO + u * (z_top - _Z_LO), _Z_NEUTRAL)
+        z0 = np.where(act, z_bot + u * (z_top - z_bot), _Z_NEUTRAL)
         if act[3]:  # a narrow resonance is easily missed: seed its frequency on an even grid
-            z0[:, 3] = np.linspace(_Z_LO[3], z_top[3], n_seed + 2)[1:-1]
+            z0[:, 3] = np.linspace(z_bot[3], z_top[3], n_seed + 2)[1:-1]
         xp = x_c + 0.05 * np.asarray(jax.random.normal(kn, (n_seed, 5), dtype=jnp.float64))
         init = np.clip(np.concatenate([xp, z0], axis=1), lo, hi)
         profiled.append(None)
