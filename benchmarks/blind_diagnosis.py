@@ -137,7 +137,8 @@ def _oracle(start_params, train_rec, val_rec, train_clean, val_clean, base=None,
     the same excitation (``base``: its TRAIN and VAL records, whose total commands differ
     from the effect case's only by the weak hold loop's share), and only what the effect
     adds to that error counts.  With ``mode`` (R-50 only) the fitted model is the paper
-    model with one extra pole pair in the structure step's box, the model the diagnosis
+    model with one extra pole pair in a box of 3-45 Hz (the structure step's until it
+    reached down to 1 Hz, e60d3ee; kept so that the stored keys stay comparable), the model the diagnosis
     ranks the effects on top of for these plants: the mode is started at each of
     :data:`_ORACLE_MODE_HZ` on the effect-free output and the best fit kept.  An effect
     that pair absorbs is then no longer counted.  Uses the truth only, never the
@@ -579,8 +580,9 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
              "high-frequency filter) is within what gusts and noise do, even for an oracle that knows the plant. "
              "On R-50 plants the diagnosis ranks the effects on top of the paper model with an extra pole pair (the "
              "structure finding), which can absorb more of an effect; `mode:` is the oracle z with that pole pair in the "
-             "fitted model (started at 3, 4.5, 7 and 11 Hz on the effect-free R-50's output, in the structure step's box: "
-             "3-45 Hz, pole damping 0.01-1, zero damping 0.02-10); `floor:` is the detectability of the structure error "
+             "fitted model (started at 3, 4.5, 7 and 11 Hz on the effect-free R-50's output, in the structure step's box "
+             "as it was when the stored keys were drawn: 3-45 Hz, pole damping 0.01-1, zero damping 0.02-10; the "
+             "diagnosis's now reaches down to 1 Hz); `floor:` is the detectability of the structure error "
              "that model leaves of the effect-free R-50 itself. The oracle subtracts that error as known; the diagnosis "
              "does not know it, and must tell the effect apart from it.")
     L.append("")

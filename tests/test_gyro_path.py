@@ -2,6 +2,7 @@
 rate, the ratio's filter fit against scipy.signal.lsim data and the analytic first-order
 response, the ranking rule it drives, and one diagnosis end to end."""
 
+import dataclasses
 import math
 
 import jax
@@ -187,17 +188,19 @@ def test_no_advice_to_separate_the_lags_once_the_gyro_path_has():
 # -- end to end ----------------------------------------------------------------------------------
 
 
-def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter(tmp_path):
-    """A 10 Hz gyro filter on the paper plant, TRAIN two sweeps with the attitude logged: the
-    gyro path finds the filter, the sensor_lag candidate is fitted at its cutoff and ranked
-    first, and the JSON report carries the gyro path."""
-    settings = DiagnoseSettings(
+def _small_settings() -> DiagnoseSettings:
+    return DiagnoseSettings(
         identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80,
                                   polish_steps=30, w_max=120.0),
         wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6,
         candidates=("time_delay", "sensor_lag", "rotor_flapping"),
     )  # fmt: skip
-    eff = EffectSet().with_effect("sensor_lag", cutoff_hz=10.0)
+
+
+def _lag_records(val_effects: EffectSet, cutoff_hz: float = 10.0):
+    """TRAIN: a sweep through a gyro filter at ``cutoff_hz``, the attitude logged; VAL: a
+    3-2-1-1 and a doublet through ``val_effects``."""
+    eff = EffectSet().with_effect("sensor_lag", cutoff_hz=cutoff_hz)
     dist = Disturbance(gust_rms=0.05, snr_db=35.0)
     k = jax.random.split(jax.random.key(5), 4)
     tr = simulate(PLANT, _sweep_input(5000, 1), k[0], sample_rate_hz=FS, disturbance=dist, effects=eff)
@@ -206,8 +209,16 @@ def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter(tmp_path):
     lat = multistep_3211(tv, amplitude=0.075, unit_s=0.3, start_s=1.0) + doublet(tv, amplitude=0.075, pulse_s=0.4,
                                                                                  start_s=10.0)  # fmt: skip
     va = simulate(PLANT, jnp.stack([lat, pilot_corrections(k[1], nv, FS, rms=0.02)], 1), k[2], sample_rate_hz=FS,
-                  disturbance=dist, effects=eff)  # fmt: skip
-    d = diagnose([tr.to_record(attitude=True)], [va.to_record()], "lateral", settings)
+                  disturbance=dist, effects=val_effects)  # fmt: skip
+    return [tr.to_record(attitude=True)], [va.to_record()], eff
+
+
+def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter(tmp_path):
+    """A 10 Hz gyro filter on the paper plant, TRAIN two sweeps with the attitude logged: the
+    gyro path finds the filter, the sensor_lag candidate is fitted at its cutoff and ranked
+    first, and the JSON report carries the gyro path."""
+    train, val, eff = _lag_records(EffectSet().with_effect("sensor_lag", cutoff_hz=10.0))
+    d = diagnose(train, val, "lateral", _small_settings())
     gp = d.to_json()["where"]["gyro_path"]
     assert gp["tested"] and gp["filter_found"] and abs(gp["cutoff_hz"] - 10.0) < 1.0
     assert d.verdict == "sensor_lag"
@@ -219,3 +230,19 @@ def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter(tmp_path):
     png = tmp_path / "d.png"
     plot_diagnosis(d, str(png))  # with the gyro path's row
     assert png.stat().st_size > 0
+
+
+def test_held_out_records_score_a_measured_filter_but_cannot_refuse_it():
+    """The filter measured on the gyro path stands on that evidence alone: held-out records
+    it makes worse (here flown without it, as the R-50's held-out records were once its
+    structure pair had absorbed the filter) report that, yet cannot refuse it.  With held-out
+    gates that refuse any candidate not improving them (``z_min``, ``min_gap`` 0) the
+    verdict stays ``sensor_lag``, its negative z-score and gap reported.  Before, a held-out
+    z below ``z_min`` refused it (seed-89 case_047: a 27 Hz filter measured at 27 Hz,
+    held-out z -2.3, the verdict none)."""
+    train, val, _eff = _lag_records(EffectSet(), cutoff_hz=5.0)
+    d = diagnose(train, val, "lateral", dataclasses.replace(_small_settings(), z_min=0.0, min_gap=0.0))
+    top = d.ranking[0]
+    assert d.verdict == "sensor_lag" and top.detail.get("cutoff_from_gyro_path") == 1.0
+    assert top.params["sensor_lag"]["cutoff_hz"] == pytest.approx(5.0, rel=0.05)
+    assert top.z_score < 0.0 and top.gap_closed < 0.0  # what the held-out records say, reported
