@@ -246,3 +246,4 @@ def test_held_out_records_score_a_measured_filter_but_cannot_refuse_it():
     assert d.verdict == "sensor_lag" and top.detail.get("cutoff_from_gyro_path") == 1.0
     assert top.params["sensor_lag"]["cutoff_hz"] == pytest.approx(5.0, rel=0.05)
     assert top.z_score < 0.0 and top.gap_closed < 0.0  # what the held-out records say, reported
+    assert "Adding it lowers the held-out R^2" in d.summary() and "gyro path" in d.summary()

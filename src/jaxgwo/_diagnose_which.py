@@ -100,9 +100,10 @@ _Z_NEUTRAL = np.array([0.0, math.log(100.0), 0.0, math.log(10.0), 0.0, 0.0])
 # the structure step's box (jaxgwo._diagnose): a pole pair the paper model lacks may be
 # damped well beyond the vocabulary's resonances and its zeros far beyond critical
 _Z_HI_STRUCTURE = np.r_[_Z_HI[:4], math.log(1.0), math.log(10.0)]
-# and it may lie below the vocabulary's resonances: a flybar airframe's coupled
-# lateral/longitudinal flapping is a pole pair at 1-3 Hz (the R-50's, Mettler 2003; a
-# seed-89 R-50 case fitted J 5.00 on the 3 Hz edge, 3.27 at 1.65 Hz)
+# and it may lie below the vocabulary's resonances, where a flybar airframe's coupled
+# lateral/longitudinal flapping lies (benchmarks/results/r50_structure_families.md: a mode
+# held to 0.5-3 Hz fits the R-50's response to 0.78 deg, one at 3-45 Hz to 2.2; a seed-89
+# R-50 case fitted J 5.00 on the 3 Hz edge, 3.27 at 1.65 Hz)
 _Z_LO_STRUCTURE = np.r_[_Z_LO[:3], math.log(1.0), _Z_LO[4:]]
 
 
@@ -243,10 +244,10 @@ class LinearFit:
 def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                n_freq: int = 48) -> np.ndarray:
     """Points ``x`` of a profile of ``J`` over the structural mode's frequency, best ``J``
-    first.  A grid over the frequency (its whole box ``[lo, hi]``) and a few damping pairs (peaks and
-    notches, sharp and broad) starts at the paper parameters ``x_paper`` and the other
-    effect coordinates ``z_other``; every point is then refined by :func:`_profile_lm`
-    with its frequency held.  Refining matters: the nominal fit absorbs a mode into the
+    first.  A grid over the frequency (its whole box in ``[lo, hi]``) and a few damping
+    pairs (peaks and notches, sharp and broad) starts at the paper parameters ``x_paper``
+    and the other effect coordinates ``z_other``; every point is then refined by
+    :func:`_profile_lm` with its frequency held.  Refining matters: the nominal fit absorbs a mode into the
     servo damping (0.42 -> 0.31 seen), and at the nominal's paper parameters the true
     mode raises ``J`` (6.1 -> 13.5) where, refitted with them, it halves it (2.2)."""
     f = np.linspace(lo[8], hi[8], n_freq)
