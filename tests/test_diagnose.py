@@ -1074,7 +1074,7 @@ def test_structure_step_starts_only_from_a_frequency_domain_winner():
 
     def top(effect, ok=True, td_path=0.0, zeta_z=2.0):
         c = _scored(effect, 3.0, ok)
-        params = {effect: {"zeta_z": zeta_z}} if effect == "structural_mode" else c.params
+        params = {effect: {"freq_hz": 9.0, "zeta_z": zeta_z}} if effect == "structural_mode" else c.params
         return dataclasses.replace(c, params=params, detail={"time_domain_path": td_path})
 
     fits = {("structural_mode",): object(), ("time_delay",): object(), ("sensor_lag",): object()}

@@ -244,19 +244,23 @@ class LinearFit:
 def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                n_freq: int = 48) -> np.ndarray:
     """Points ``x`` of a profile of ``J`` over the structural mode's frequency, best ``J``
-    first.  A grid over the frequency (its whole box in ``[lo, hi]``) and a few damping
-    pairs (peaks and notches, sharp and broad) starts at the paper parameters ``x_paper``
-    and the other effect coordinates ``z_other``; every point is then refined by
-    :func:`_profile_lm` with its frequency held.  Refining matters: the nominal fit absorbs a mode into the
-    servo damping (0.42 -> 0.31 seen), and at the nominal's paper parameters the true
-    mode raises ``J`` (6.1 -> 13.5) where, refitted with them, it halves it (2.2)."""
-    f = np.linspace(lo[8], hi[8], n_freq)
+    first.  A grid over the frequency (its whole box in ``[lo, hi]``, ``n_freq`` points
+    over the vocabulary's box and as densely over a wider one: the structure step's
+    reaches down to 1 Hz, and at 48 points there a 9 Hz pair behind a 60 ms delay was
+    found at 6.3 Hz) and a few damping pairs (peaks and notches, sharp and broad) starts
+    at the paper parameters ``x_paper`` and the other effect coordinates ``z_other``;
+    every point is then refined by :func:`_profile_lm` with its frequency held.  Refining
+    matters: the nominal fit absorbs a mode into the servo damping (0.42 -> 0.31 seen), and
+    at the nominal's paper parameters the true mode raises ``J`` (6.1 -> 13.5) where,
+    refitted with them, it halves it (2.2)."""
+    n = 1 + round((n_freq - 1) * (hi[8] - lo[8]) / (_Z_HI[3] - _Z_LO[3]))
+    f = np.linspace(lo[8], hi[8], n)
     damp = [(0.03, 0.2), (0.05, 0.15), (0.02, 0.3), (0.1, 0.3), (0.2, 0.05), (0.3, 0.1)]
     rows = []
     for zp, zz in damp:
-        z = np.tile(np.asarray(z_other, float), (n_freq, 1))
+        z = np.tile(np.asarray(z_other, float), (n, 1))
         z[:, 3], z[:, 4], z[:, 5] = f, math.log(zp), math.log(zz)
-        rows.append(np.concatenate([np.tile(x_paper, (n_freq, 1)), z], axis=1))
+        rows.append(np.concatenate([np.tile(x_paper, (n, 1)), z], axis=1))
     xs = np.clip(np.concatenate(rows), lo, hi)
     free = np.r_[np.ones(5, bool), np.asarray(objective.active, bool)]
     free[5 + 3] = False  # the profile's coordinate
