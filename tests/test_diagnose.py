@@ -790,7 +790,7 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     assert all(c.effects != ("structural_mode",) for c in d.ranking)
     doc = json.loads(json.dumps(d.to_json()))
     assert doc["structure"]["effect"] == "structural_mode" and doc["ranking_paper_model"][0]["effect"] == "structural_mode"
-    assert "lacks a pole pair near" in d.summary()
+    assert "lacks a pole pair near" in d.summary() and "its zeros are real" in d.summary()
     from jaxgwo._report import diagnosis_report_html
 
     assert "Ranked on top of the structure finding" in diagnosis_report_html(d, figures=False)

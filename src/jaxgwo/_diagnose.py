@@ -359,9 +359,11 @@ class Diagnosis:
         if self.structure is not None:
             sm = self.structure.params["structural_mode"]
             before = self.structure.val_r2
+            why = ("it lies below the vocabulary's resonances (3 Hz and up)" if math.log(sm["freq_hz"]) < _Z_LO[3]
+                   else "its zeros are real")  # _airframe_pair
             lines.append(
-                f"The paper model lacks a pole pair near {sm['freq_hz']:.3g} Hz (damping {sm['zeta_p']:.2g}; its zeros "
-                "are real, so it is no lightly damped structural resonance but a mode of the airframe such as a "
+                f"The paper model lacks a pole pair near {sm['freq_hz']:.3g} Hz (damping {sm['zeta_p']:.2g}; {why}, "
+                "so it is no lightly damped structural resonance but a mode of the airframe such as a "
                 "coupled rotor or stabilizer-bar mode). Adding it: held-out R^2 "
                 f"{self.nominal_r2:.3f} -> {before:.3f}. The effects are ranked on top of it."
                 + (" It shows only on top of a time delay, which hides it from the paper model alone."
