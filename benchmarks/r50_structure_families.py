@@ -20,8 +20,10 @@ The residual is ``log(G_fit / H)``: rms over 0.3-20 Hz (200 log-spaced points) o
 part in dB and its imaginary part in degrees, each point weighted alike.  Families:
 
 * ``paper``: K, tau, M, omega_s, zeta_s (eqs 15-16);
-* ``mode``: paper x ``structural_mode`` in the structure step's box (3-45 Hz, zeta_p
-  0.01-1, zeta_z 0.02-10), the family the diagnosis uses;
+* ``mode``: paper x ``structural_mode`` in the structure step's box as it was when the
+  results were made (3-45 Hz, zeta_p 0.01-1, zeta_z 0.02-10), the family the diagnosis
+  uses; its box now reaches down to 1 Hz (``_Z_LO_STRUCTURE``), where the next family's
+  low mode lies;
 * ``lead-lag``: paper x ``(s/z + 1)/(s/p + 1)``, z and p in 0.5-500 rad/s (the bar's
   input zero and the flapping pole of the unreduced rotor/bar model);
 * ``lead-lag x low mode``: the same x a mode held to 0.5-3 Hz (the coupled lateral/

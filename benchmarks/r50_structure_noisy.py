@@ -32,7 +32,8 @@ from jaxgwo._identify import IdentifySettings, _prepare, identify_channels
 # the blind study's identification settings (benchmarks/blind_diagnosis.py)
 IDS = IdentifySettings(method="wls-igwo+polish", wolves=12, iterations=30, n_frequencies=80, polish_steps=40,
                        w_max=120.0)  # fmt: skip
-# name -> (lower, upper, starts) of its coordinates: the diagnosis's z boxes (jaxgwo._diagnose_which)
+# name -> (lower, upper, starts) of its coordinates: the diagnosis's z boxes (jaxgwo._diagnose_which) as they
+# were when this probe was run (the structure step's box now reaches down to 1 Hz, _Z_LO_STRUCTURE)
 STRUCT = {
     "mode": (_Z_LO[3:6], _Z_HI_STRUCTURE[3:6],
              [np.log([f, zp, zz]) for f in (3.5, 6, 10) for zp, zz in ((0.5, 1.5), (0.3, 3))]),
