@@ -247,20 +247,28 @@ def test_mode_profile_finds_a_mode_the_nominal_servo_absorbed():
     assert np.asarray(xs)[0, 8] == x0[8]  # the frequency stays held
 
 
+def _paper_times_mode(freq_hz: float, zeta_p: float, zeta_z: float):
+    """``J`` of the noise-free response of the paper model (:data:`MODEL`) times a
+    ``structural_mode``, and the paper model's log-parameters (the fits' start)."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._effects import structural_mode_response
+    from jaxgwo._models import ParameterMap
+
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, freq_hz, zeta_p,
+                                                                                           zeta_z))  # fmt: skip
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    return obj, np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+
+
 def test_structure_box_reaches_a_pole_pair_beyond_the_resonance_box():
     """A pole pair the paper model lacks, damped beyond the vocabulary's resonances (poles
     0.7, zeros 4: real zeros): the vocabulary's box stops on its caps, the structure
     step's box (``z_hi=_Z_HI_STRUCTURE``) recovers the pair on noise-free data."""
-    from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose_which import _Z_HI, _Z_HI_STRUCTURE, fit_linear_candidates
-    from jaxgwo._effects import structural_mode_response
-    from jaxgwo._models import ParameterMap
 
     freq, zp, zz = 5.0, 0.7, 4.0
-    sign = float(np.sign(float(MODEL.K)))
-    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, freq, zp, zz))
-    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
-    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    obj, x_nom = _paper_times_mode(freq, zp, zz)
     key = jax.random.key(3)
     (narrow,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], key, wolves=10, iterations=25)
     (wide,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], key, wolves=10, iterations=25,
@@ -276,17 +284,11 @@ def test_structure_box_reaches_down_to_a_flybars_coupled_flapping():
     coupled flapping a flybar airframe adds): the vocabulary's bottom (3 Hz) stops the
     fit on that floor, the structure step's (``z_lo=_Z_LO_STRUCTURE``, 1 Hz) recovers the
     pair on noise-free data, and it counts as the airframe's, not an effect's."""
-    from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose import _airframe_pair
     from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO, _Z_LO_STRUCTURE, fit_linear_candidates
-    from jaxgwo._effects import structural_mode_response
-    from jaxgwo._models import ParameterMap
 
     freq, zp, zz = 1.7, 0.2, 0.7
-    sign = float(np.sign(float(MODEL.K)))
-    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, freq, zp, zz))
-    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
-    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    obj, x_nom = _paper_times_mode(freq, zp, zz)
     key = jax.random.key(3)
     kw = dict(wolves=10, iterations=25, z_hi=_Z_HI_STRUCTURE)
     (floor,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], key, **kw)
