@@ -11,7 +11,14 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from jaxgwo._diagnose import DiagnoseSettings, _gyro_path_order, diagnose, plot_diagnosis, separation_suggestion
+from jaxgwo._diagnose import (
+    DiagnoseSettings,
+    _gyro_filter_held,
+    _gyro_path_order,
+    diagnose,
+    plot_diagnosis,
+    separation_suggestion,
+)
 from jaxgwo._diagnose_where import GyroPath, gyro_path
 from jaxgwo._diagnose_which import CandidateScore
 from jaxgwo._effects import EffectSet
@@ -172,6 +179,26 @@ def test_gyro_path_orders_the_two_lags():
     assert [c.effects[0] for c in out] == ["rotor_flapping", "time_delay", "sensor_lag", "backlash"]
     # not tested (no attitude): unchanged
     assert _gyro_path_order(top_lag, GyroPath(False), 1e-3) == top_lag
+
+
+def test_a_gyro_filter_above_the_candidates_box_neither_holds_nor_promotes_a_lag():
+    # an exact 150 Hz filter, found at p ~ 0: above the sensor_lag box's 100 Hz top the
+    # candidate keeps its own fit (not held), so the path's finding does not rank it first;
+    # its 30 Hz cutoff is rejected by the path like any other it refutes
+    f = np.geomspace(0.5, 15.0, 40)
+    g = GyroPath(True, 150.0, (140.0, 160.0), 1e-30, 1.0, f.size, "", f, 1.0 / (1.0 + 1j * f / 150.0),
+                 np.full(f.size, 0.01))  # fmt: skip
+    assert g.shows_filter(1e-3) and not _gyro_filter_held(g, 1e-3) and g.refutes(30.0)
+    lag = _scored("sensor_lag", 1.9, True, {"sensor_lag": {"cutoff_hz": 30.0}})
+    out = _gyro_path_order((_scored("rotor_flapping", 2.0), _scored("time_delay", 1.95), lag), g, 1e-3)
+    assert [c.effects[0] for c in out] == ["rotor_flapping", "time_delay", "sensor_lag"]
+    assert not out[-1].beats_noise and "ranked_by_gyro_path" not in out[-1].detail
+    assert out[-1].detail["refuted_by_gyro_path"] == 1.0
+    # the same filter at 40 Hz, inside the box: held, and the passing lag goes first
+    g40 = dataclasses.replace(g, cutoff_hz=40.0, ratio=1.0 / (1.0 + 1j * f / 40.0))
+    assert _gyro_filter_held(g40, 1e-3)
+    out = _gyro_path_order((_scored("rotor_flapping", 2.0), lag), g40, 1e-3)
+    assert [c.effects[0] for c in out] == ["sensor_lag", "rotor_flapping"]
 
 
 def test_no_advice_to_separate_the_lags_once_the_gyro_path_has():

@@ -545,10 +545,19 @@ def _gyro_path(records: Sequence[FlightRecord], channel: str, pairs, sample_rate
     return gyro_path([(u, y) for _t, u, _o, y in pairs], att, sample_rate_hz, w, coherence_threshold=coherence_threshold)
 
 
+def _gyro_filter_held(gyro: GyroPath, alpha: float) -> bool:
+    """Whether the gyro path shows a filter that the ``sensor_lag`` candidate is fitted with:
+    one at level ``alpha`` below the candidate box's top (100 Hz; one above it acts beyond
+    the analysed band and is not held).  The one condition for holding the cutoff and for
+    ranking the candidate first on the path's evidence (:func:`_gyro_path_order`)."""
+    return gyro.shows_filter(alpha) and math.log(gyro.cutoff_hz) < _Z_HI[1]
+
+
 def _gyro_path_order(ranking: Sequence[CandidateScore], gyro: GyroPath, alpha: float) -> tuple[CandidateScore, ...]:
     """``ranking`` (best first) as the gyro path decides it: where the attitude shows a gyro
-    filter, a passing ``sensor_lag`` goes first (``detail["ranked_by_gyro_path"]``); where it
-    shows none and rejects the candidate's cutoff, the ``sensor_lag`` no longer beats noise
+    filter that the candidate holds (:func:`_gyro_filter_held`), a passing ``sensor_lag``
+    goes first (``detail["ranked_by_gyro_path"]``); where it shows none (or one above the
+    candidate's box) and rejects the candidate's cutoff, the ``sensor_lag`` no longer beats noise
     (``detail["refuted_by_gyro_path"]``, its score less 10, placed among the failing ones)
     and the passing ones keep their order.
     A flapping lag inside the rotor/fuselage loop moves rate and attitude alike, a gyro
@@ -561,7 +570,7 @@ def _gyro_path_order(ranking: Sequence[CandidateScore], gyro: GyroPath, alpha: f
     if i is None:
         return ranking
     c = ranking[i]
-    if gyro.shows_filter(alpha):
+    if _gyro_filter_held(gyro, alpha):
         if not c.beats_noise or i == 0:
             return ranking
         moved = dataclasses.replace(c, detail=dict(c.detail) | {"ranked_by_gyro_path": 1.0})
@@ -869,10 +878,8 @@ def diagnose(
                                np.asarray(resp.w), coherence_threshold=ids.coherence_threshold)  # fmt: skip
     nlb = noise_limited_bands(resp)
     gyro = _gyro_path(train, channel, tt, 1.0 / dt, np.asarray(resp.w), ids.coherence_threshold)
-    # a gyro filter the attitude shows is measured there: its candidate is fitted with that
-    # cutoff (one above the candidate's box, 100 Hz, acts beyond the analysed band)
-    shown = gyro.shows_filter(settings.alpha) and math.log(gyro.cutoff_hz) < _Z_HI[1]
-    held = {1: math.log(gyro.cutoff_hz)} if shown else None
+    # a gyro filter the attitude shows is measured there: its candidate is fitted with that cutoff
+    held = {1: math.log(gyro.cutoff_hz)} if _gyro_filter_held(gyro, settings.alpha) else None
     yv, pv = jnp.asarray(np.concatenate(val_meas)), jnp.asarray(np.concatenate(val_nom))
     r2_nom, tic_nom = float(r_squared(yv, pv)), float(theil_inequality(yv, pv))
 
