@@ -274,3 +274,22 @@ def test_held_out_records_score_a_measured_filter_but_cannot_refuse_it():
     assert top.params["sensor_lag"]["cutoff_hz"] == pytest.approx(5.0, rel=0.05)
     assert top.z_score < 0.0 and top.gap_closed < 0.0  # what the held-out records say, reported
     assert "Adding it lowers the held-out R^2" in d.summary() and "gyro path" in d.summary()
+
+
+def test_the_plot_overlays_the_model_the_diagnosis_proposes():
+    from types import SimpleNamespace
+
+    from jaxgwo._diagnose import _proposed_model
+
+    pair = _scored("structural_mode", 0.0, True, {"structural_mode": {"freq_hz": 1.71, "zeta_p": 0.17, "zeta_z": 0.79}})
+    failing = (_scored("sensor_lag", -9.9, False), _scored("time_delay", -9.9, False))
+    passing = (_scored("time_delay", 2.0), _scored("sensor_lag", 1.0))
+    # verdict none on top of a structure finding: the paper model with the pair, not the failed top candidate
+    model, label = _proposed_model(SimpleNamespace(verdict="none", ranking=failing, structure=pair))
+    assert model is pair and label == "+pole pair 1.71 Hz"
+    # a verdict on top of it: that candidate, whose prediction carries the pair
+    model, label = _proposed_model(SimpleNamespace(verdict="time_delay", ranking=passing, structure=pair))
+    assert model is passing[0] and label == "+pole pair 1.71 Hz+time_delay"
+    # no structure: the verdict's candidate, or nothing beside the nominal
+    assert _proposed_model(SimpleNamespace(verdict="time_delay", ranking=passing, structure=None)) == (passing[0], "+time_delay")
+    assert _proposed_model(SimpleNamespace(verdict="none", ranking=failing, structure=None)) == (None, "")

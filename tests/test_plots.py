@@ -146,3 +146,18 @@ def test_montecarlo_convergence_plot_from_the_cli(tmp_path):
     assert_valid_png(out)
     assert main(["montecarlo", "--convergence-plot", str(tmp_path / "no" / "c.png")]) == 2
     assert sorted(p.name for p in tmp_path.iterdir()) == ["conv.png"]
+
+
+def test_log_frequency_axis_labels_one_two_five_in_plain_numbers():
+    # a diagnosis's band, under two decades: matplotlib's default labels its minor ticks
+    # as 2x10^-1 ... and they ran into each other on the half-page panels
+    fig = _plots._figure(figsize=(6, 3))
+    ax = fig.add_subplot()
+    ax.plot([0.16, 7.7], [0.0, 1.0])
+    _plots.log_frequency_axis(ax)
+    ax.set_xlim(0.16, 7.7)
+    fig.canvas.draw()
+    major = [(t.get_position()[0], t.get_text()) for t in ax.get_xticklabels() if 0.16 <= t.get_position()[0] <= 7.7]
+    assert major == [(0.2, "0.2"), (0.5, "0.5"), (1.0, "1"), (2.0, "2"), (5.0, "5")]
+    assert all(t.get_text() == "" for t in ax.get_xticklabels(minor=True))
+    assert ax.get_xscale() == "log"

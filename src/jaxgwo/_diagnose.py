@@ -1260,6 +1260,21 @@ def diagnose(
     )  # fmt: skip
 
 
+def _proposed_model(d: Diagnosis) -> tuple[CandidateScore | None, str]:
+    """The model the diagnosis proposes and its legend label: the verdict's candidate (on
+    top of a structure finding's pole pair, which its prediction includes), else the paper
+    model with that pair, else none (the nominal stands).  Not the top of the ranking when
+    the verdict is none: that candidate failed, and its held-out fit is not a claim."""
+    pair = ()
+    if d.structure is not None:
+        pair = (f"pole pair {d.structure.params['structural_mode']['freq_hz']:.3g} Hz",)
+    if d.verdict != "none" and d.ranking:
+        return d.ranking[0], "+" + "+".join(pair + d.ranking[0].effects)
+    if d.structure is not None:
+        return d.structure, "+" + pair[0]
+    return None, ""
+
+
 def plot_diagnosis(d: Diagnosis, path: str) -> None:
     """Bode mismatch with its bounds and the flagged bands shaded; residual auto- and
     input cross-correlation; before/after overlays on VAL; the candidates' held-out gains;
@@ -1270,16 +1285,18 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
     import matplotlib.pyplot as plt
 
     from ._atomic import atomic_savefig
+    from ._plots import log_frequency_axis
 
     fm = d.mismatch
     g = d.gyro
     fig, ax = plt.subplots(4 if g.tested else 3, 2, figsize=(12.0, 14.5 if g.tested else 11.0))
     for a, err, bound, lab in ((ax[0, 0], fm.magnitude_error_db, fm.magnitude_bound_db, "magnitude error (dB)"),
                                (ax[0, 1], fm.phase_error_deg, fm.phase_bound_deg, "phase error (deg)")):  # fmt: skip
-        a.semilogx(fm.f_hz, err, "k.-", ms=3, label="model - measured")
+        a.plot(fm.f_hz, err, "k.-", ms=3, label="model - measured")
         a.fill_between(fm.f_hz, -fm.nsigma * bound, fm.nsigma * bound, color="0.85", label=f"+-{fm.nsigma:g} sigma random error")
         for lo, hi in fm.bands_hz:
             a.axvspan(lo, hi, color="tab:red", alpha=0.2)
+        log_frequency_axis(a)
         a.set_xlabel("frequency (Hz)")
         a.set_ylabel(lab)
         a.legend(fontsize=8)
@@ -1296,9 +1313,9 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
     t = d.val_time[0]
     ax[2, 0].plot(t, d.val_measured[0], "k", lw=0.8, label="measured (VAL)")
     ax[2, 0].plot(t, d.val_nominal[0], "tab:blue", lw=0.8, label=f"nominal R^2 {d.nominal_r2:.3f}")
-    if d.ranking:
-        top = d.ranking[0]
-        ax[2, 0].plot(t, top.predicted[0], "tab:red", lw=0.8, label=f"+{'+'.join(top.effects)} R^2 {top.val_r2:.3f}")
+    proposed, label = _proposed_model(d)
+    if proposed is not None:
+        ax[2, 0].plot(t, proposed.predicted[0], "tab:red", lw=0.8, label=f"{label} R^2 {proposed.val_r2:.3f}")
     ax[2, 0].set_xlabel("time (s)")
     ax[2, 0].legend(fontsize=8)
     names = ["+".join(c.effects) for c in d.ranking]
@@ -1314,8 +1331,9 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
                                      "gyro path |p / (s phi)| (dB)"),
                                     (ax[3, 1], np.rad2deg(np.angle(g.ratio)), np.rad2deg(np.angle(fit)),
                                      "gyro path phase (deg)")):  # fmt: skip
-            a.semilogx(g.f_hz, data, "k.", ms=3, label="rate over attitude rate")
-            a.semilogx(g.f_hz, model, "tab:red", label=label)
+            a.plot(g.f_hz, data, "k.", ms=3, label="rate over attitude rate")
+            a.plot(g.f_hz, model, "tab:red", label=label)
+            log_frequency_axis(a)
             a.set_xlabel("frequency (Hz)")
             a.set_ylabel(lab)
             a.legend(fontsize=8)

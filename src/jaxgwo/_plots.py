@@ -91,6 +91,19 @@ def _shade_masked(ax, w: np.ndarray, mask: np.ndarray, label: bool) -> None:
                    label="coherence below threshold (not fitted)" if label and k == 0 else None)
 
 
+def log_frequency_axis(ax) -> None:
+    """A log frequency axis labelled at 1, 2 and 5 of each decade in plain numbers, its other
+    minor ticks unlabelled.  Matplotlib's default labels minor ticks as ``2x10^-1`` once the
+    axis spans under about two decades (a diagnosis's 0.16-7.7 Hz band), and on a
+    half-page panel those labels run into each other."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    ax.set_xscale("log")
+    ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def _bode_axes(ax_m, ax_p, res, colorbar_fig=None) -> None:
     from matplotlib.colors import to_rgba
 
@@ -123,7 +136,7 @@ def _bode_axes(ax_m, ax_p, res, colorbar_fig=None) -> None:
                    label="measured (opacity: coherence)")
         ax.plot(w, model, "C3-", lw=1.6, label=f"{res.method} (J = {res.cost_J:.1f})")
         ax.plot(w, wls, "k--", lw=0.9, label=f"WLS start (J = {res.wls_cost_J:.1f})")
-        ax.set_xscale("log")
+        log_frequency_axis(ax)
         ax.set_xlim(w[0], w[-1])
         ax.grid(True, which="both", alpha=0.3)
     ax_m.set_title(f"{res.channel}: Bode")
