@@ -300,6 +300,8 @@ def test_structure_box_reaches_down_to_a_flybars_coupled_flapping():
     assert _airframe_pair(w, 1.0)  # complex zeros, but below every resonance of the vocabulary
     assert not _airframe_pair({"freq_hz": 8.0, "zeta_p": 0.05, "zeta_z": 0.15}, 1.0)  # a resonance
     assert _airframe_pair({"freq_hz": 8.0, "zeta_p": 0.5, "zeta_z": 3.0}, 1.0)  # real zeros
+    # structure_zeta_z = inf switches the structure step off: neither a low pair nor real zeros count
+    assert not _airframe_pair(w, math.inf) and not _airframe_pair({"freq_hz": 8.0, "zeta_p": 0.5, "zeta_z": 3.0}, math.inf)
 
 
 def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch):

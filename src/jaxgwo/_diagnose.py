@@ -746,7 +746,10 @@ def _airframe_pair(mode: Mapping[str, float], structure_zeta_z: float) -> bool:
     airframe rather than a resonance of the vocabulary: real zeros (zero damping above
     ``structure_zeta_z``), or a frequency below the vocabulary's box (``_Z_LO``, 3 Hz),
     where no effect lies but a flybar's coupled flapping does (the structure step's box
-    reaches down to 1 Hz, ``_Z_LO_STRUCTURE``)."""
+    reaches down to 1 Hz, ``_Z_LO_STRUCTURE``).  ``structure_zeta_z = inf`` switches the
+    structure step off, so then neither counts."""
+    if math.isinf(structure_zeta_z):
+        return False
     return mode["zeta_z"] > structure_zeta_z or math.log(mode["freq_hz"]) < _Z_LO[3]
 
 
