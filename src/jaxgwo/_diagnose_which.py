@@ -496,35 +496,42 @@ def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substep
     h = dt / substeps
     stop = 1.0 / h  # how fast a stop is approached, 1/s (see the docstring)
 
-    def deriv(state, cmd):
-        pos, vel = state
-        acc = sp.omega**2 * (cmd - pos) - 2.0 * sp.zeta * sp.omega * vel
-        acc = jnp.clip(acc, stop * (-sp.rate - vel), stop * (sp.rate - vel))
-        v_out = jnp.clip(vel, -sp.rate, sp.rate)
-        d_pos = jnp.clip(v_out, stop * (-sp.limit - pos), stop * (sp.limit - pos))
-        return jnp.stack([d_pos, acc])
-
-    def sub(carry, cmd):
-        state, swash = carry
-        k1 = deriv(state, cmd)
-        k2 = deriv(state + 0.5 * h * k1, cmd)
-        k3 = deriv(state + 0.5 * h * k2, cmd)
-        k4 = deriv(state + h * k3, cmd)
-        state = state + (h / 6.0) * (k1 + 2 * k2 + 2 * k3 + k4)
-        out = jnp.clip(state[0], -sp.limit, sp.limit)
-        swash = jnp.clip(swash, out - 0.5 * sp.width, out + 0.5 * sp.width)
-        return state, swash
-
+    # Speed, the arithmetic unchanged (bit-identical): position and velocity are two scalars,
+    # not one stacked state, and the five servo constants ride in the scan's carry behind an
+    # optimization barrier.  Without the barrier XLA hoists every loop-invariant subterm out
+    # of the loop as a scalar of its own (some 60), each fusion in the loop body then takes
+    # about 50 buffers, and on a CPU resolving them each sample cost 2.5 us where the
+    # arithmetic takes 0.3 us: 14.7 ms against 1.6 ms for 5700 samples, and a vmapped
+    # batch of 11 (a central-difference gradient) 20 ms against 15 ms.
     def step(carry, uk):
-        state, swash = carry
+        pos, vel, swash, consts = carry
+        consts = jax.lax.optimization_barrier(consts)
+        w2, c, rate, limit, width = consts
+
+        def deriv(pos, vel):
+            acc = w2 * (uk - pos) - c * vel
+            acc = jnp.clip(acc, stop * (-rate - vel), stop * (rate - vel))
+            v_out = jnp.clip(vel, -rate, rate)
+            d_pos = jnp.clip(v_out, stop * (-limit - pos), stop * (limit - pos))
+            return d_pos, acc
+
         mid = None
-        for j in range(substeps):
-            state, swash = sub((state, swash), uk)
+        for j in range(substeps):  # RK4 steps of h, then the backlash's dead band
+            a1, b1 = deriv(pos, vel)
+            a2, b2 = deriv(pos + 0.5 * h * a1, vel + 0.5 * h * b1)
+            a3, b3 = deriv(pos + 0.5 * h * a2, vel + 0.5 * h * b2)
+            a4, b4 = deriv(pos + h * a3, vel + h * b3)
+            pos = pos + (h / 6.0) * (a1 + 2 * a2 + 2 * a3 + a4)
+            vel = vel + (h / 6.0) * (b1 + 2 * b2 + 2 * b3 + b4)
+            out = jnp.clip(pos, -limit, limit)
+            swash = jnp.clip(swash, out - 0.5 * width, out + 0.5 * width)
             if j == substeps // 2 - 1:
                 mid = swash
-        return (state, swash), mid
+        return (pos, vel, swash, consts), mid
 
-    _, mids = jax.lax.scan(step, (jnp.zeros(2), jnp.zeros(())), u)
+    z = jnp.zeros(())
+    consts = (sp.omega**2, 2.0 * sp.zeta * sp.omega, sp.rate, sp.limit, sp.width)
+    _, mids = jax.lax.scan(step, (z, z, z, consts), u)
     return mids
 
 
