@@ -974,21 +974,53 @@ def _check_json_report_schema(d):
     assert c["gap_closed"] == pytest.approx((c["val_r2"] - r0) / (1 - r0), rel=1e-9)
 
 
-def test_cli_end_to_end_and_bad_input(tmp_path, capsys):
+def _diagnose_parser():
     from jaxgwo.cli import _diagnose as cli
 
+    parser = argparse.ArgumentParser()
+    cli.add_parser(parser.add_subparsers())
+    return parser
+
+
+def test_cli_settings_are_the_calibrated_defaults_sized_by_the_options():
+    """``jaxgwo diagnose`` runs :class:`DiagnoseSettings`'s defaults (the blind study's
+    configuration); ``--wolves`` / ``--iterations`` size the nominal fit and the linear
+    refits alike, ``--seed`` and ``--w-max`` reach the nominal fit, the time-domain refits
+    keep their own sizes."""
+    from jaxgwo.cli._diagnose import diagnose_settings
+
+    parse = lambda *a: _diagnose_parser().parse_args(["diagnose", "--channel", "lateral", *a])  # noqa: E731
+    base = DiagnoseSettings()
+    assert diagnose_settings(parse()) == base
+    s = diagnose_settings(parse("--wolves", "10", "--iterations", "20", "--seed", "3", "--w-max", "100"))
+    assert (s.wolves, s.iterations, s.identify.wolves, s.identify.iterations) == (10, 20, 10, 20)
+    assert s.seed == s.identify.seed == 3 and s.identify.w_max == 100.0
+    assert (s.nonlinear_wolves, s.nonlinear_iterations) == (base.nonlinear_wolves, base.nonlinear_iterations)
+    assert dataclasses.replace(s, wolves=base.wolves, iterations=base.iterations, seed=base.seed,
+                               identify=base.identify) == base  # fmt: skip
+    with pytest.raises(ValueError, match="--wolves must be >= 4"):
+        diagnose_settings(parse("--wolves", "3"))
+
+
+def test_cli_end_to_end_and_bad_input(tmp_path, capsys, monkeypatch):
+    """Records on disk through ``jaxgwo diagnose`` to its JSON, PNG and summary.  The
+    configuration is this file's :data:`SETTINGS` (the CLI's defaults stand in for it, the
+    mapping of the options is tested above): the blind study's sizes would only make this
+    test slower, the shapes match the other diagnoses here and so do their compiled programs."""
+    import jaxgwo._diagnose
+
+    monkeypatch.setattr(jaxgwo._diagnose, "DiagnoseSettings", lambda: SETTINGS)
+    parser = _diagnose_parser()
     train, val = _delay_records()  # records only: the CLI runs its own diagnosis
     tr_path, va_path = tmp_path / "train.csv", tmp_path / "val.csv"
     save_record(train[0], tr_path)
     # the validation record without its off-axis cyclic: cross_coupling must be skipped with a reason
     v = val[0]
     save_record(make_record(v.time, {"delta_lat": v["delta_lat"], "p": v["p"]}), va_path)
-    parser = argparse.ArgumentParser()
-    cli.add_parser(parser.add_subparsers())
     out = tmp_path / "d.json"
     png = tmp_path / "d.png"
     args = parser.parse_args(["diagnose", str(tr_path), "--validate", str(va_path), "--channel", "lateral",
-                              "--wolves", "10", "--iterations", "20", "--json", str(out), "--plot", str(png)])  # fmt: skip
+                              "--json", str(out), "--plot", str(png)])  # fmt: skip
     assert args.func(args) == 0
     doc = json.loads(out.read_text())
     assert doc["verdict"] in [c["effect"] for c in doc["ranking"][:1]] + ["none"]
