@@ -479,7 +479,8 @@ class _ServoParams(eqx.Module):
 
 
 @eqx.filter_jit
-def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substeps: int = 4) -> Float[Array, " n"]:
+def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substeps: int = 4,
+                     one: bool = False) -> Float[Array, " n"]:
     """Swashplate position mid-way through each sample interval of a second-order servo with
     rate limit, saturation and backlash (the simulator's rules, :mod:`jaxgwo._simulate`), driven
     by the held input ``u``.  Mid-interval samples make the following ZOH rotor simulation
@@ -496,42 +497,54 @@ def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substep
     h = dt / substeps
     stop = 1.0 / h  # how fast a stop is approached, 1/s (see the docstring)
 
-    # Speed, the arithmetic unchanged (bit-identical): position and velocity are two scalars,
-    # not one stacked state, and the five servo constants ride in the scan's carry behind an
-    # optimization barrier.  Without the barrier XLA hoists every loop-invariant subterm out
-    # of the loop as a scalar of its own (some 60), each fusion in the loop body then takes
-    # about 50 buffers, and on a CPU resolving them each sample cost 2.5 us where the
-    # arithmetic takes 0.3 us: 14.7 ms against 1.6 ms for 5700 samples, and a vmapped
-    # batch of 11 (a central-difference gradient) 20 ms against 15 ms.
+    # Speed, the arithmetic the same either way.  XLA hoists every loop-invariant subterm of
+    # the body out of the scan as a scalar of its own (some 60), so each fusion in the loop
+    # body takes about 50 buffers; on a CPU, for one simulation, resolving them costs 2.5 us
+    # per sample against 0.3 us of arithmetic.  With ``one`` (a single simulation, not
+    # vmapped over candidates or points) position and velocity are two scalars and the five
+    # servo constants ride in the scan's carry behind an optimization barrier, which keeps
+    # them loop-variant: 5700 samples 14.7 -> 1.6 ms, the output bit for bit the same.
+    # Vmapped, the hoisted form is the faster where the batch is wide (300 rows: 252 ms
+    # against 571 ms) and the two may differ in the last bit, so every batched caller
+    # keeps it (a batch of 11, a central-difference gradient, would gain 56 -> 36 ms).
+    def deriv(pos, vel, cmd, consts):
+        w2, c, rate, limit, _width = consts
+        acc = w2 * (cmd - pos) - c * vel
+        acc = jnp.clip(acc, stop * (-rate - vel), stop * (rate - vel))
+        v_out = jnp.clip(vel, -rate, rate)
+        d_pos = jnp.clip(v_out, stop * (-limit - pos), stop * (limit - pos))
+        return d_pos, acc
+
+    def f(state, cmd, consts):  # the state's derivative, in the state's own form
+        if one:
+            return deriv(*state, cmd, consts)
+        return jnp.stack(deriv(state[0], state[1], cmd, consts))
+
+    def axpy(state, a, k):
+        return jax.tree.map(lambda si, ki: si + a * ki, state, k)
+
     def step(carry, uk):
-        pos, vel, swash, consts = carry
-        consts = jax.lax.optimization_barrier(consts)
-        w2, c, rate, limit, width = consts
-
-        def deriv(pos, vel):
-            acc = w2 * (uk - pos) - c * vel
-            acc = jnp.clip(acc, stop * (-rate - vel), stop * (rate - vel))
-            v_out = jnp.clip(vel, -rate, rate)
-            d_pos = jnp.clip(v_out, stop * (-limit - pos), stop * (limit - pos))
-            return d_pos, acc
-
+        state, swash, consts = carry
+        if one:
+            consts = jax.lax.optimization_barrier(consts)
+        limit, width = consts[3], consts[4]
         mid = None
         for j in range(substeps):  # RK4 steps of h, then the backlash's dead band
-            a1, b1 = deriv(pos, vel)
-            a2, b2 = deriv(pos + 0.5 * h * a1, vel + 0.5 * h * b1)
-            a3, b3 = deriv(pos + 0.5 * h * a2, vel + 0.5 * h * b2)
-            a4, b4 = deriv(pos + h * a3, vel + h * b3)
-            pos = pos + (h / 6.0) * (a1 + 2 * a2 + 2 * a3 + a4)
-            vel = vel + (h / 6.0) * (b1 + 2 * b2 + 2 * b3 + b4)
-            out = jnp.clip(pos, -limit, limit)
+            k1 = f(state, uk, consts)
+            k2 = f(axpy(state, 0.5 * h, k1), uk, consts)
+            k3 = f(axpy(state, 0.5 * h, k2), uk, consts)
+            k4 = f(axpy(state, h, k3), uk, consts)
+            state = jax.tree.map(lambda si, a1, a2, a3, a4: si + (h / 6.0) * (a1 + 2 * a2 + 2 * a3 + a4),
+                                 state, k1, k2, k3, k4)  # fmt: skip
+            out = jnp.clip(state[0], -limit, limit)
             swash = jnp.clip(swash, out - 0.5 * width, out + 0.5 * width)
             if j == substeps // 2 - 1:
                 mid = swash
-        return (pos, vel, swash, consts), mid
+        return (state, swash, consts), mid
 
     z = jnp.zeros(())
     consts = (sp.omega**2, 2.0 * sp.zeta * sp.omega, sp.rate, sp.limit, sp.width)
-    _, mids = jax.lax.scan(step, (z, z, z, consts), u)
+    _, mids = jax.lax.scan(step, ((z, z) if one else jnp.zeros(2), z, consts), u)
     return mids
 
 
@@ -890,16 +903,18 @@ class NonlinearOutputError(eqx.Module):
             return jnp.stack([self.tau_f, 1.0 + self.tau_f * inv_tau, inv_tau, m])
         return jnp.stack([jnp.ones(()), inv_tau, m])
 
-    def outputs(self, x) -> Float[Array, "rec n"]:
+    def outputs(self, x, one: bool = False) -> Float[Array, "rec n"]:
+        """Simulated outputs; ``one`` where ``x`` is a single point, not vmapped over many
+        (the servo's faster form there, :func:`_nonlinear_servo`; the same numbers)."""
         sp = self.servo(x)
         num, den = jnp.reshape(self.gain, (1,)), self.rotor_den(x)
         if self.filtered:
             num, den = self.gain * self.post_num, jnp.convolve(den, self.post_den)
-        sim = lambda u: simulate_transfer_function(num, den, self.t, _nonlinear_servo(sp, u, self.dt))  # noqa: E731
+        sim = lambda u: simulate_transfer_function(num, den, self.t, _nonlinear_servo(sp, u, self.dt, one=one))  # noqa: E731
         return jax.vmap(sim)(self.u) * self.mask
 
-    def gain_and_mse(self, x):
-        return _closed_form_gain(self.outputs(x), self.y, self.mask)
+    def gain_and_mse(self, x, one: bool = False):
+        return _closed_form_gain(self.outputs(x, one), self.y, self.mask)
 
     def __call__(self, x) -> Float[Array, ""]:
         mse = self.gain_and_mse(x)[1]
@@ -1266,7 +1281,7 @@ def _nl_mse(obj: NonlinearOutputError, x) -> float:
 
 @eqx.filter_jit
 def _nl_gain_mse(obj: NonlinearOutputError, x):
-    return obj.gain_and_mse(x)
+    return obj.gain_and_mse(x, one=True)  # one point: the servo's unbatched form
 
 
 def simulated_response_cost(objective: CiferObjective, pairs, sample_rate_hz: float, w: np.ndarray, sign: float,
