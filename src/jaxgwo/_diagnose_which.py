@@ -1280,8 +1280,10 @@ def _nl_mse(obj: NonlinearOutputError, x) -> float:
 
 
 @eqx.filter_jit
-def _nl_gain_mse(obj: NonlinearOutputError, x):
-    return obj.gain_and_mse(x, one=True)  # one point: the servo's unbatched form
+def _nl_gain_mse(obj: NonlinearOutputError | LinearOutputError, x):
+    if isinstance(obj, NonlinearOutputError):
+        return obj.gain_and_mse(x, one=True)  # one point: the servo's unbatched form
+    return obj.gain_and_mse(x)
 
 
 def simulated_response_cost(objective: CiferObjective, pairs, sample_rate_hz: float, w: np.ndarray, sign: float,
