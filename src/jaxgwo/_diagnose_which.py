@@ -910,7 +910,9 @@ class NonlinearOutputError(eqx.Module):
         num, den = jnp.reshape(self.gain, (1,)), self.rotor_den(x)
         if self.filtered:
             num, den = self.gain * self.post_num, jnp.convolve(den, self.post_den)
-        sim = lambda u: simulate_transfer_function(num, den, self.t, _nonlinear_servo(sp, u, self.dt, one=one))  # noqa: E731
+        def sim(u):
+            return simulate_transfer_function(num, den, self.t, _nonlinear_servo(sp, u, self.dt, one=one))
+
         return jax.vmap(sim)(self.u) * self.mask
 
     def gain_and_mse(self, x, one: bool = False):
@@ -1274,8 +1276,8 @@ def _nl_lm(objs: NonlinearOutputError, xs, lo, hi, steps: int = 25):
     return jax.vmap(one)(objs, xs, lo, hi)
 
 
-def _nl_mse(obj: NonlinearOutputError, x) -> float:
-    """The identification output error of ``obj`` at ``x``, a Python float."""
+def _nl_mse(obj: NonlinearOutputError | LinearOutputError, x) -> float:
+    """The identification output error of ``obj`` (either output-error objective) at ``x``, a Python float."""
     return float(_nl_gain_mse(obj, jnp.asarray(x))[1])
 
 
