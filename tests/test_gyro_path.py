@@ -230,7 +230,7 @@ def _lag_records(val_effects: EffectSet, cutoff_hz: float = 10.0):
     eff = EffectSet().with_effect("sensor_lag", cutoff_hz=cutoff_hz)
     dist = Disturbance(gust_rms=0.05, snr_db=35.0)
     k = jax.random.split(jax.random.key(5), 4)
-    tr = simulate(PLANT, _sweep_input(5000, 1), k[0], sample_rate_hz=FS, disturbance=dist, effects=eff)
+    tr = simulate(PLANT, _sweep_input(5700, 1), k[0], sample_rate_hz=FS, disturbance=dist, effects=eff)
     nv = 2000
     tv = jnp.arange(nv, dtype=jnp.float64) / FS
     lat = multistep_3211(tv, amplitude=0.075, unit_s=0.3, start_s=1.0) + doublet(tv, amplitude=0.075, pulse_s=0.4,
