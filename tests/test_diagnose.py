@@ -346,9 +346,9 @@ def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch
     resp = _response(lambda w: sign * MODEL.frequency_response(w) * time_delay_response(w, 0.03))
     obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
     x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
-    (alone,) = fit_linear_candidates(obj, x_nom, [("time_delay",)], key, wolves=6, iterations=5)
+    (alone,) = fit_linear_candidates(obj, x_nom, [("time_delay",)], key, wolves=10, iterations=25)
     for batch in ([("sensor_lag",), ("time_delay",)], [("time_delay",), ("rotor_flapping",), ("sensor_lag",)]):
-        fits = fit_linear_candidates(obj, x_nom, batch, key, wolves=6, iterations=5)
+        fits = fit_linear_candidates(obj, x_nom, batch, key, wolves=10, iterations=25)
         same_rows(calls[0], calls[-1])
         beside = fits[batch.index(("time_delay",))]
         np.testing.assert_allclose(beside.x, alone.x, rtol=1e-12, atol=1e-12)
@@ -356,7 +356,7 @@ def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch
     train, _val = _case(None, seed=2)
     tt = _time_pairs(train, "lateral", SETTINGS.identify)
     base = ModelSpec(np.asarray(MODEL.to_array(), float))
-    kw = dict(key=key, wolves=4, iterations=3, profile_points=4)
+    kw = dict(key=key, wolves=6, iterations=6, profile_points=4)
     stop_after_batch = True
     for names in (["saturation"], ["rate_limit", "saturation"]):
         with pytest.raises(Captured):
