@@ -360,6 +360,20 @@ def _param_error(effect: str, truth: dict, fit: dict) -> tuple[str, float]:
     return f"rel error of {p} (%)", 100.0 * abs(fit[p] - truth[p]) / abs(truth[p])
 
 
+def class_order(doc: dict) -> list[str]:
+    """The diagnosis's answer as an ordering of the classes: the candidates that beat noise
+    in their ranking order, then ``none``, then the candidates that do not, in their ranking
+    order (the report's ``ranking`` lists them so; :func:`jaxgwo._diagnose._best_first`).
+    Its first entry is the verdict.  Top-2 over this ordering is the usual top-k reading
+    of a ranking over all the classes; the study's headline top-2 counts only candidates
+    that beat noise, so that a ``none`` verdict never scores it.  A failed case orders
+    nothing but ``none``."""
+    single = [c for c in doc.get("ranking", []) if c["effect"] in CLASSES]
+    passing = [c["effect"] for c in single if c["beats_noise"]]
+    failing = [c["effect"] for c in single if not c["beats_noise"]]
+    return [*passing, "none", *failing]
+
+
 def score(workdir: str, results: dict) -> dict:
     """Phase 3: open the key and score."""
     from jaxgwo._data import load_record
@@ -376,6 +390,7 @@ def score(workdir: str, results: dict) -> dict:
         conf[idx[truth], idx[verdict] if verdict in idx else idx["none"]] += 1  # an error counts as none
         ranked = [c["effect"] for c in doc["ranking"] if c["beats_noise"]]
         top2 = verdict == truth if truth == "none" else truth in ranked[:2]
+        order2 = class_order(doc)[:2]
         y = np.asarray(load_record(os.path.join(workdir, name, "val.csv"))["p"], float)
         p_true = np.load(os.path.join(workdir, f"truth_{name[5:]}.npy"))
         r2_true = _r2(y, p_true)
@@ -402,7 +417,7 @@ def score(workdir: str, results: dict) -> dict:
         zf = (k.get("floor_z_train_mode"), k.get("floor_z_val_mode"))
         rows.append({"identifiable": identifiable, "oracle_z": (zt, zv), "oracle_z_mode": zm,
                      "floor_z": zf if None not in zf else None,
-                     "identifiable_mode": zm is not None and min(zm) > ORACLE_Z, "observable": observable, "case": name, "truth": truth, "verdict": verdict, "top1": verdict == truth, "top2": bool(top2),
+                     "identifiable_mode": zm is not None and min(zm) > ORACLE_Z, "observable": observable, "case": name, "truth": truth, "verdict": verdict, "top1": verdict == truth, "top2": bool(top2), "order2": order2, "top2_order": truth in order2,
                      "r2_nominal": r2_nom, "r2_after": r2_top, "r2_true": r2_true, "param_error": perr,
                      "exercised": k.get("exercised_fraction"), "plant": k["plant"], "snr_db": k["snr_db"],
                      "wall_s": doc["wall_s"], "structure_hz": structure["params"]["freq_hz"] if structure else None})  # fmt: skip
@@ -474,6 +489,9 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
     L.append(f"| top-1 accuracy over effects | {_share(n_top1, len(eff_rows))} | >= 85 % |")
     L.append(f"| top-2 accuracy over effects | {_share(n_top2, len(eff_rows))} | >= 95 % |")
     L.append(f"| false alarms on none | {_share(n_fa, len(none_rows))} | 0 % |")
+    n_ord = sum(r["top2_order"] for r in eff_rows)
+    L.append("| top-2 over effects, read over the whole ranking (the candidates that beat noise, then none, "
+             f"then the rest: `class_order`) | {_share(n_ord, len(eff_rows))} | |")  # fmt: skip
     obs = [r for r in eff_rows if r["observable"]]
     if obs:
         L.append(f"| top-1 / top-2 over effects the excitation reaches | {_pct(r['top1'] for r in obs)} % / "
@@ -553,8 +571,8 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
     L.append("")
     L.append("## Cases")
     L.append("")
-    L.append("| case | plant | truth | verdict | top-2 | structure Hz | SNR dB | R2 nominal | R2 after | R2 true | param error | exercised | oracle z TRAIN, VAL |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    L.append("| case | plant | truth | verdict | top-2 | second in ordering | structure Hz | SNR dB | R2 nominal | R2 after | R2 true | param error | exercised | oracle z TRAIN, VAL |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         pe = f"{r['param_error'][1]:.3g}" if r["param_error"] else "-"
         ex = f"{r['exercised']:.3f}" if r["exercised"] is not None else "-"
@@ -564,7 +582,8 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
             oz += " (mode: {:.1f}, {:.1f}".format(*r["oracle_z_mode"])
             oz += "; floor: {:.1f}, {:.1f})".format(*r["floor_z"]) if r.get("floor_z") is not None else ")"
         sh = f"{r['structure_hz']:.1f}" if r["structure_hz"] is not None else "-"
-        L.append(f"| {r['case']} | {r['plant']} | {r['truth']} | {r['verdict']} | {'yes' if r['top2'] else 'no'} | {sh} | "
+        L.append(f"| {r['case']} | {r['plant']} | {r['truth']} | {r['verdict']} | {'yes' if r['top2'] else 'no'} | "
+                 f"{r['order2'][1] if len(r['order2']) > 1 else '-'} | {sh} | "
                  f"{r['snr_db']:.0f} | {r['r2_nominal']:.4f} | {r['r2_after']:.4f} | {r['r2_true']:.4f} | {pe} | {ex} | {oz} |")  # fmt: skip
     L.append("")
     L.append("Not reached by the excitation (kept in the scores above): structural modes above the sweep's top "
