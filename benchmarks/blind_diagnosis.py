@@ -470,8 +470,10 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
     L.append("")
     L.append(f"{len(rows)} cases ({args.cases_per_effect} per class x {len(classes)} classes), seed {args.seed}; "
              f"{platform.node() or 'host'} ({platform.machine()}, {os.cpu_count()} cores), JAX {jax.__version__}, "
-             f"float64, jaxgwo {getattr(jaxgwo, '__version__', '?')}; total wall {elapsed / 60:.1f} min, "
-             f"median diagnosis {np.median([r['wall_s'] for r in rows]):.1f} s per case.")  # fmt: skip
+             f"float64, jaxgwo {getattr(jaxgwo, '__version__', '?')}; total wall {elapsed / 60:.1f} min"
+             + (" (this invocation: `--resume` read diagnoses already in the workdir's diagnoses.json; "
+                f"their own wall times add up to {sum(r['wall_s'] for r in rows) / 60:.1f} min)" if args.resume else "")
+             + f", median diagnosis {np.median([r['wall_s'] for r in rows]):.1f} s per case.")  # fmt: skip
     L.append("")
     L.append("Each case: a randomised plant (paper model; R-50 variants with their hold loop for "
              f"{100 * args.r50_fraction:.0f} % of cases), one effect (or none) with parameters drawn from the realistic "
@@ -489,6 +491,15 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
     L.append(f"| top-1 accuracy over effects | {_share(n_top1, len(eff_rows))} | >= 85 % |")
     L.append(f"| top-2 accuracy over effects | {_share(n_top2, len(eff_rows))} | >= 95 % |")
     L.append(f"| false alarms on none | {_share(n_fa, len(none_rows))} | 0 % |")
+    for effect, bound, unit in (("time_delay", 3.0, "ms"), ("sensor_lag", 15.0, "%")):
+        errs = [r["param_error"][1] for r in eff_rows if r["truth"] == effect and r["param_error"] is not None]
+        if errs:
+            L.append(f"| {effect} estimated within {bound:g} {unit} (its candidate, wherever it ranks) | "
+                     f"{_share(sum(e <= bound for e in errs), len(errs))}, largest error {max(errs):.3g} {unit} | "
+                     f"within {bound:g} {unit} |")  # fmt: skip
+    dr2 = [abs(r["r2_after"] - r["r2_true"]) for r in rows]
+    L.append("| the proposed model's VAL R^2 within 0.02 of the true model's (every case) | "
+             f"{_share(sum(d <= 0.02 for d in dr2), len(rows))}, largest difference {max(dr2):.3f} | within 0.02 |")  # fmt: skip
     n_ord = sum(r["top2_order"] for r in eff_rows)
     L.append("| top-2 over effects, read over the whole ranking (the candidates that beat noise, then none, "
              f"then the rest: `class_order`) | {_share(n_ord, len(eff_rows))} | |")  # fmt: skip

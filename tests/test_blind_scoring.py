@@ -37,3 +37,39 @@ def test_combined_entries_and_failed_cases(blind):
     doc = _doc(("time_delay+sensor_lag", True), ("time_delay", True), ("unknown", False))
     assert blind.class_order(doc) == ["time_delay", "none"]
     assert blind.class_order({"verdict": "error", "ranking": []}) == ["none"]
+
+
+def _row(case, truth, verdict, *, order2=("none",), perr=None, r2_after=0.99, r2_true=0.99):
+    return {"case": case, "truth": truth, "verdict": verdict, "top1": verdict == truth,
+            "top2": verdict == truth, "order2": list(order2), "top2_order": truth in order2,
+            "identifiable": True, "oracle_z": (5.0, 5.0), "oracle_z_mode": None, "floor_z": None,
+            "identifiable_mode": False, "observable": True, "r2_nominal": 0.9, "r2_after": r2_after,
+            "r2_true": r2_true, "param_error": perr, "exercised": None, "plant": "paper", "snr_db": 30.0,
+            "wall_s": 10.0, "structure_hz": None}  # fmt: skip
+
+
+def test_the_report_counts_each_target_against_its_bound(blind, tmp_path):
+    import argparse
+
+    import numpy as np
+
+    rows = [
+        _row("case_000", "time_delay", "time_delay", order2=("time_delay", "none"), perr=("abs error (ms)", 1.0)),
+        _row("case_001", "time_delay", "none", order2=("none", "time_delay"), perr=("abs error (ms)", 4.5),
+             r2_after=0.95, r2_true=0.98),
+        _row("case_002", "sensor_lag", "rotor_flapping", order2=("rotor_flapping", "none"),
+             perr=("rel error of cutoff_hz (%)", 14.0)),
+        _row("case_003", "none", "none", r2_after=0.99, r2_true=0.999),
+    ]
+    conf = np.zeros((len(blind.CLASSES), len(blind.CLASSES)), int)
+    args = argparse.Namespace(classes=",".join(blind.CLASSES), reuse=False, resume=False, seed=1,
+                              cases_per_effect=1, r50_fraction=0.0, attitude=False, report_name="r")  # fmt: skip
+    blind.write_report({"rows": rows, "confusion": conf}, args, str(tmp_path), 60.0)
+    text = (tmp_path / "r.md").read_text()
+    assert "| time_delay estimated within 3 ms (its candidate, wherever it ranks) | 50 % (1/2), largest error 4.5 ms |" in text
+    assert "| sensor_lag estimated within 15 % (its candidate, wherever it ranks) | 100 % (1/1), largest error 14 % |" in text
+    assert "within 0.02 of the true model's (every case) | 75 % (3/4), largest difference 0.030 |" in text
+    # top-1 1/3; the none verdict whose best candidate below noise is the truth counts over the ranking
+    assert "| top-1 accuracy over effects | 33 % (1/3) |" in text
+    assert "read over the whole ranking" in text and "`class_order`) | 67 % (2/3) |" in text
+    assert (tmp_path / "r.png").stat().st_size > 0
