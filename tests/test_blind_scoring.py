@@ -1,8 +1,10 @@
 """The blind study's reading of a report as an ordering of the classes (benchmarks/blind_diagnosis.py)."""
 
+import argparse
 import importlib.util
 import os
 
+import numpy as np
 import pytest
 
 _PATH = os.path.join(os.path.dirname(__file__), os.pardir, "benchmarks", "blind_diagnosis.py")
@@ -48,11 +50,15 @@ def _row(case, truth, verdict, *, order2=("none",), perr=None, r2_after=0.99, r2
             "wall_s": 10.0, "structure_hz": None}  # fmt: skip
 
 
+def _write(blind, tmp_path, rows):
+    """The report of ``rows`` (an all-zero confusion matrix) in ``tmp_path``/r.md and r.png."""
+    conf = np.zeros((len(blind.CLASSES), len(blind.CLASSES)), int)
+    args = argparse.Namespace(classes=",".join(blind.CLASSES), reuse=False, resume=False, seed=1,
+                              cases_per_effect=1, r50_fraction=0.0, attitude=False, report_name="r")  # fmt: skip
+    blind.write_report({"rows": rows, "confusion": conf}, args, str(tmp_path), 60.0)
+
+
 def test_the_report_counts_each_target_against_its_bound(blind, tmp_path):
-    import argparse
-
-    import numpy as np
-
     rows = [
         _row("case_000", "time_delay", "time_delay", order2=("time_delay", "none"), perr=("abs error (ms)", 1.0)),
         _row("case_001", "time_delay", "none", order2=("none", "time_delay"), perr=("abs error (ms)", 4.5),
@@ -61,10 +67,7 @@ def test_the_report_counts_each_target_against_its_bound(blind, tmp_path):
              perr=("rel error of cutoff_hz (%)", 14.0)),
         _row("case_003", "none", "none", r2_after=0.99, r2_true=0.999),
     ]
-    conf = np.zeros((len(blind.CLASSES), len(blind.CLASSES)), int)
-    args = argparse.Namespace(classes=",".join(blind.CLASSES), reuse=False, resume=False, seed=1,
-                              cases_per_effect=1, r50_fraction=0.0, attitude=False, report_name="r")  # fmt: skip
-    blind.write_report({"rows": rows, "confusion": conf}, args, str(tmp_path), 60.0)
+    _write(blind, tmp_path, rows)
     text = (tmp_path / "r.md").read_text()
     assert "| time_delay estimated within 3 ms (its candidate, wherever it ranks) | 50 % (1/2), largest error 4.5 ms |" in text
     assert "| sensor_lag estimated within 15 % (its candidate, wherever it ranks) | 100 % (1/1), largest error 14 % |" in text
@@ -73,3 +76,10 @@ def test_the_report_counts_each_target_against_its_bound(blind, tmp_path):
     assert "| top-1 accuracy over effects | 33 % (1/3) |" in text
     assert "read over the whole ranking" in text and "`class_order`) | 67 % (2/3) |" in text
     assert (tmp_path / "r.png").stat().st_size > 0
+
+
+def test_a_failed_case_shows_in_the_r2_target_row(blind, tmp_path):
+    rows = [_row("case_000", "backlash", "backlash", order2=("backlash", "none")),
+            _row("case_001", "saturation", "error", r2_after=float("nan"))]  # a diagnosis that raised
+    _write(blind, tmp_path, rows)
+    assert "(every case) | 50 % (1/2), largest difference nan |" in (tmp_path / "r.md").read_text()
