@@ -43,7 +43,7 @@ def test_combined_entries_and_failed_cases(blind):
 
 def _row(case, truth, verdict, *, order2=("none",), perr=None, r2_after=0.99, r2_true=0.99):
     return {"case": case, "truth": truth, "verdict": verdict, "top1": verdict == truth,
-            "top2": verdict == truth, "order2": list(order2), "top2_order": truth in order2,
+            "top2": verdict == truth, "order2": list(order2),
             "identifiable": True, "oracle_z": (5.0, 5.0), "oracle_z_mode": None, "floor_z": None,
             "identifiable_mode": False, "observable": True, "r2_nominal": 0.9, "r2_after": r2_after,
             "r2_true": r2_true, "param_error": perr, "exercised": None, "plant": "paper", "snr_db": 30.0,
