@@ -931,6 +931,40 @@ def test_cross_coupling_sigma_counts_the_regressors_and_residuals_joint_correlat
     assert np.median(white) / spread < 0.4
 
 
+def test_cross_coupling_gain_is_not_made_by_trim_errors():
+    """No cross-coupling, 40 draws: the off-axis stick is taken relative to its trim (the
+    mean of its first 0.5 s, so its mean over the record is not zero) and the residual
+    carries a constant the size of a gyro bias or a trim error (+-0.003 rad/s, above the
+    slow residual's 0.002 rms).  The gain's z-score keeps unit spread, and the constant
+    changes nothing.  Without a constant per record beside the gain the two constants'
+    product counted as correlation: the spread was 1.58 (a blind `none` case reached 4.4
+    sigma)."""
+    from jaxgwo._diagnose_which import ModelSpec, fit_cross_coupling, simulate_model
+
+    n, n0 = 3000, 50
+    t = np.arange(n) / FS
+    base = ModelSpec(np.asarray(MODEL.to_array(), float))
+    z = []
+    for i in range(40):
+        k1, k2, k3 = jax.random.split(jax.random.key(300 + i), 3)
+        u_off = np.asarray(pilot_corrections(k1, n, FS, rms=0.02))
+        u_off = u_off - u_off[:n0].mean()
+        e = np.asarray(pilot_corrections(k2, n, FS, rms=0.002))
+        c = 0.003 * float(jax.random.rademacher(k3, ()))
+        cc = fit_cross_coupling(base, [(t, np.zeros(n), u_off, e + c)])
+        g, sg = cc.params["cross_coupling"]["gain"], cc.sigma["cross_coupling"]["gain"]
+        if i < 3:
+            plain = fit_cross_coupling(base, [(t, np.zeros(n), u_off, e)])
+            assert g == pytest.approx(plain.params["cross_coupling"]["gain"], rel=1e-9, abs=1e-12)
+            assert sg == pytest.approx(plain.sigma["cross_coupling"]["gain"], rel=1e-9)
+            # the training error is the augmented model's, the constant included: it compares with the null's
+            x = simulate_model(base, t, u_off)
+            assert cc.train_mse == pytest.approx(np.mean((e + c - g * x) ** 2), rel=1e-9)
+        z.append(g / sg)
+    assert 0.75 < np.std(z) < 1.33
+    assert np.max(np.abs(z)) < 4.0
+
+
 def test_cross_coupling_case_is_found_against_the_time_domain_null_refit():
     """The off-axis stick drives the on-axis plant (gain 0.15).  The gain is fitted on top
     of the null refit (the paper model refitted by output error), whose error it must cut:
