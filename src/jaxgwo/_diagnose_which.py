@@ -680,11 +680,10 @@ def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.nda
     den = float(sum(x @ x for x in xc))
     g = float(sum(r @ x for r, x in zip(rc, xc))) / den if den > 0 else 0.0
     es = [r - g * x for r, x in zip(rc, xc)]
-    e = np.concatenate(es)
     dt = float(train[0][0][1] - train[0][0][0])
     lag = max(1, min(int(round(max_lag_s / dt)), min(v.size for v in es) // 4))
     c_x = sum(_autocovariance(x, lag) for x in xc)
-    g_e = sum(_autocovariance(v, lag) for v in es) / e.size
+    g_e = sum(_autocovariance(v, lag) for v in es) / sum(v.size for v in es)
     w = 1.0 - np.arange(lag + 1) / (lag + 1.0)
     var = float(c_x[0] * g_e[0] + 2.0 * np.sum(w[1:] * c_x[1:] * g_e[1:]))
     if not var > 0.0:  # the lag products' sampling error can swamp a near-white pair
