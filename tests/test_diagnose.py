@@ -449,6 +449,58 @@ def test_nonlinear_error_gradient_matches_forward_mode(effect, value):
         assert abs(ref[0]) > 1e-3 * np.max(np.abs(ref))  # the limit acts on these records
 
 
+def test_output_error_fits_a_constant_per_record_beside_the_gain():
+    """Both output-error objectives fit the output gain and one constant per record (the
+    records' trim errors): against numpy.linalg.lstsq with those columns, on two records
+    of different length (padding); a different shift of each record's output moves
+    neither the gain nor the error (it did before: the shift's square was error); and the
+    residual vector the Levenberg-Marquardt steps use squares to that error."""
+    from jaxgwo._diagnose import _time_pairs
+    from jaxgwo._diagnose_which import (LinearOutputError, ModelSpec, _output_residual_vector, _padded,
+                                        nonlinear_objectives)  # fmt: skip
+
+    train, _val = _case(None, seed=2)
+    (t, u, o, y), = _time_pairs(train, "lateral", SETTINGS.identify)
+    n1 = int(0.6 * y.size)
+    tt = [(t, u, o, y), (t[:n1], u[:n1], o[:n1], 0.8 * y[:n1])]
+    shifts = (0.02, -0.015)
+    shifted = [(a, b, c, d + k) for (a, b, c, d), k in zip(tt, shifts, strict=True)]
+    _k, tau, m, ws, zs = (float(v) for v in MODEL.to_array())
+    x_nl = jnp.asarray(np.log([0.5, 0.9 * ws, 1.3 * zs, 1.1 * tau, 0.95 * m]))  # a rate limit that acts
+    x_lin = jnp.asarray(np.r_[np.zeros(6), np.log([0.9 * ws, 1.3 * zs, 1.1 * tau, 0.95 * m])])
+
+    def linear(pairs):
+        uu, yy, mask, tp, _dt = _padded(pairs, 0.0)
+        return LinearOutputError(*(jnp.asarray(v) for v in (uu, yy, mask, tp)), jnp.asarray(float(MODEL.to_array()[0])),
+                                 ())  # fmt: skip
+
+    for make, x in ((lambda p: nonlinear_objectives(ModelSpec(MODEL.to_array()), p, ["rate_limit"])[0], x_nl),
+                    (linear, x_lin)):  # fmt: skip
+        obj = make(tt)
+        s = np.asarray(obj.outputs(x))
+        mask = np.asarray(obj.mask)
+        assert mask[1].sum() == n1 and mask[0].sum() == y.size  # padded
+        cols, rhs = [], []
+        for r in range(2):
+            keep = mask[r] > 0
+            one_hot = np.zeros((int(keep.sum()), 2))
+            one_hot[:, r] = 1.0
+            cols.append(np.column_stack([s[r, keep], one_hot]))
+            rhs.append(np.asarray(obj.y)[r, keep])
+        a, b = np.concatenate(cols), np.concatenate(rhs)
+        sol, res, *_ = np.linalg.lstsq(a, b, rcond=None)
+        c, mse = (float(v) for v in obj.gain_and_mse(x))
+        assert c == pytest.approx(sol[0], rel=1e-9)
+        assert mse == pytest.approx(res[0] / b.size, rel=1e-9)
+        c2, mse2 = (float(v) for v in make(shifted).gain_and_mse(x))
+        assert (c2, mse2) == pytest.approx((c, mse), rel=1e-9)
+        b_sh = b + np.where(a[:, 1] > 0, shifts[0], shifts[1])
+        no_constants = np.linalg.lstsq(a[:, :1], b_sh, rcond=None)[1][0] / b.size
+        assert no_constants > 1.2 * mse  # the shifts would have been error without the constants
+        r = np.asarray(_output_residual_vector(obj, x))
+        assert float(np.sum(r**2) / mask.sum()) == pytest.approx(mse, rel=1e-9)
+
+
 def _hard_stop_servo(u, omega, zeta, rate, limit, substeps=200):
     """Plain NumPy reference of the simulator's servo (:mod:`jaxgwo._simulate`): the velocity
     state stops at ``rate`` and the position at ``limit`` by switching, integrated by
