@@ -455,15 +455,17 @@ def test_output_error_fits_a_constant_per_record_beside_the_gain():
     of different length (padding); a different shift of each record's output moves
     neither the gain nor the error (it did before: the shift's square was error); and the
     residual vector the Levenberg-Marquardt steps use squares to that error."""
-    from jaxgwo._diagnose import _time_pairs
     from jaxgwo._diagnose_which import (LinearOutputError, ModelSpec, _output_residual_vector, _padded,
-                                        nonlinear_objectives)  # fmt: skip
+                                        nonlinear_objectives, simulate_model)  # fmt: skip
 
-    train, _val = _case(None, seed=2)
-    (t, u, o, y), = _time_pairs(train, "lateral", SETTINGS.identify)
+    t = np.arange(int(20 * FS)) / FS
+    u = np.asarray(frequency_sweep(jnp.asarray(t), f_start_hz=0.3, f_stop_hz=8, duration_s=18, amplitude=0.1, start_s=1))
+    rng = np.random.default_rng(5)
+    y = simulate_model(ModelSpec(MODEL.to_array()), t, u) + 0.01 * rng.standard_normal(t.size) + 0.003
+    o = np.zeros_like(u)
     n1 = int(0.6 * y.size)
     tt = [(t, u, o, y), (t[:n1], u[:n1], o[:n1], 0.8 * y[:n1])]
-    shifts = (0.02, -0.015)
+    shifts = (0.05, -0.04)
     shifted = [(a, b, c, d + k) for (a, b, c, d), k in zip(tt, shifts, strict=True)]
     _k, tau, m, ws, zs = (float(v) for v in MODEL.to_array())
     x_nl = jnp.asarray(np.log([0.5, 0.9 * ws, 1.3 * zs, 1.1 * tau, 0.95 * m]))  # a rate limit that acts
