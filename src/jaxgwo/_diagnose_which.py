@@ -704,6 +704,12 @@ def _about_record_means(v: Float[Array, "rec n"], mask: Float[Array, "rec n"]) -
 
 
 def _closed_form_gain(s: Float[Array, "rec n"], y: Float[Array, "rec n"], mask: Float[Array, "rec n"]):
+    r"""``(c, mse)`` of :func:`_gain_about_record_means`."""
+    c, mse, _sc, _yc = _gain_about_record_means(s, y, mask)
+    return c, mse
+
+
+def _gain_about_record_means(s: Float[Array, "rec n"], y: Float[Array, "rec n"], mask: Float[Array, "rec n"]):
     r"""The output gain :math:`c` that best scales a prediction ``s`` to the data ``y``,
     a constant per record fitted beside it, and the mean squared error over the ``mask``.
 
@@ -714,11 +720,12 @@ def _closed_form_gain(s: Float[Array, "rec n"], y: Float[Array, "rec n"], mask: 
     its first 0.5 s, off by that half second's gusts, and a model simulated from rest
     cannot follow the offset.  Left in, it inflates the null refit's and every
     candidate's error alike (seed-113 case_036, a ``none`` case: x1.78 with the output
-    shifted by 3 mrad/s), which makes no effect pass but hides real ones."""
+    shifted by 3 mrad/s), which makes no effect pass but hides real ones.  Returns ``c``,
+    the error, and ``s`` and ``y`` about their means (their residual is ``yc - c sc``)."""
     sc, yc = _about_record_means(s, mask), _about_record_means(y, mask)
     ys, ss, yy = jnp.sum(sc * yc), jnp.sum(sc * sc), jnp.sum(yc * yc)
     c = jnp.where(ss > 0, ys / jnp.where(ss > 0, ss, 1.0), 1.0)
-    return c, (yy - 2 * c * ys + c * c * ss) / jnp.sum(mask)
+    return c, (yy - 2 * c * ys + c * c * ss) / jnp.sum(mask), sc, yc
 
 
 class LinearOutputError(eqx.Module):
@@ -862,8 +869,8 @@ def _output_residual_vector(obj: LinearOutputError | NonlinearOutputError, x):
     constants in closed form (padding zero): the mean of their squares is the
     objective's ``gain_and_mse`` error."""
     s = obj.outputs(x)  # simulated once: the gain and the residual share it
-    c, _mse = _closed_form_gain(s, obj.y, obj.mask)
-    return jnp.ravel(_about_record_means(obj.y, obj.mask) - c * _about_record_means(s, obj.mask))
+    c, _mse, sc, yc = _gain_about_record_means(s, obj.y, obj.mask)
+    return jnp.ravel(yc - c * sc)
 
 
 @eqx.filter_jit
