@@ -1067,7 +1067,8 @@ def diagnose(
             cc = fit_cross_coupling(null_spec, tt)
             spec = ModelSpec(null_spec.params, dict(null_spec.effects) | cc.params, null_spec.gain_scale)
             specs[("cross_coupling",)] = spec
-            mse_null = float(np.mean(np.concatenate(tr_res) ** 2))
+            # about each record's mean, as the null refit's own error and cc.train_mse are
+            mse_null = float(np.mean(np.concatenate([r - np.mean(r) for r in tr_res]) ** 2))
             g, sg = cc.params["cross_coupling"]["gain"], cc.sigma["cross_coupling"]["gain"]
             p_cc = math.erfc(abs(g / sg) / math.sqrt(2.0)) if sg > 0 else 1.0  # two-sided, Bartlett's sigma
             ev = output_error_evidence(mse_null, max(cc.train_mse, 1e-300), 1, n_nl)

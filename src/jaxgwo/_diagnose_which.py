@@ -668,8 +668,8 @@ def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.nda
     a blind ``none`` case (seed 113, case_070) it made a gain of 0.038 at 4.4 sigma; taken
     about the means, 0.005 at 1.4 sigma
     (``test_cross_coupling_gain_is_not_made_by_trim_errors``).  The training error
-    returned is the augmented model's own, without the constants, so that it compares with
-    the null refit's."""
+    returned is taken about the same means, as the null refit's is (:func:`_closed_form_gain`),
+    so that the two compare."""
     base0 = ModelSpec(base.params, {k: v for k, v in base.effects.items() if k != "cross_coupling"}, base.gain_scale)
     res, xs = [], []
     for t, u, u_off, y in train:
@@ -689,7 +689,7 @@ def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.nda
     if not var > 0.0:  # the lag products' sampling error can swamp a near-white pair
         var = float(c_x[0] * g_e[0])
     sig = math.sqrt(var) / den if den > 0 else float("inf")
-    mse = float(np.mean(np.concatenate([r - g * x for r, x in zip(res, xs)]) ** 2))
+    mse = float(np.mean(np.concatenate(es) ** 2))
     return TimeFit(("cross_coupling",), {"cross_coupling": {"gain": g}}, {"cross_coupling": {"gain": sig}}, 1.0,
                    mse)  # fmt: skip
 
