@@ -824,11 +824,43 @@ def test_time_delay_case_is_found_estimated_and_reported():
     _check_json_report_schema(d)
 
 
+def _paper_lsim(params: dict, t, u):
+    """scipy.signal.lsim (zero-order hold) of the paper model, eqs. 15-16."""
+    import scipy.signal
+
+    k, tau, m, ws, zs = (params[n] for n in ("K", "tau", "M", "omega_s", "zeta_s"))
+    den = np.polymul([1.0, 1.0 / tau, m], [1.0, 2 * zs * ws, ws * ws])
+    return scipy.signal.lsim(([k * ws * ws], den), u, t, interp=False)[1]
+
+
 def test_no_effect_case_answers_none():
+    """No effect: the verdict is none.  The report also gives the null refit (the paper
+    model refitted by output error on TRAIN, no effect added), checked here against
+    scipy.signal.lsim of its reported parameters: its held-out R^2 (eq. 46, by hand) and its
+    identification error, which is at most the nominal's, both taken about each record's
+    mean.  The summary quotes it where it predicts VAL better than the frequency-domain fit."""
+    from jaxgwo._diagnose import _time_pairs
+
     train, val = _case(None, seed=1)
     d = diagnose(train, val, "lateral", SETTINGS)
     assert d.verdict == "none" and not any(c.beats_noise for c in d.ranking)
     assert "No candidate effect beats noise" in d.summary()
+    doc = json.loads(json.dumps(d.to_json()))["time_domain_refit"]
+    assert set(doc) == {"params", "effects", "train_mse", "val_r2", "val_tic", "gap_closed"} and doc["effects"] == {}
+    y = np.concatenate([yv for *_r, yv in _time_pairs(val, "lateral", SETTINGS.identify)])
+    p = np.concatenate([_paper_lsim(doc["params"], tv, uv) for tv, uv, _o, _y in _time_pairs(val, "lateral", SETTINGS.identify)])
+    r2 = 1.0 - np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2)
+    assert doc["val_r2"] == pytest.approx(r2, abs=1e-6)
+    assert doc["gap_closed"] == pytest.approx((r2 - d.nominal_r2) / (1.0 - d.nominal_r2), abs=1e-5)
+
+    def centred_mse(params):
+        e = [yt - _paper_lsim(params, tt, ut) for tt, ut, _o, yt in _time_pairs(train, "lateral", SETTINGS.identify)]
+        return float(np.mean(np.concatenate([v - v.mean() for v in e]) ** 2))
+
+    assert doc["train_mse"] == pytest.approx(centred_mse(doc["params"]), rel=1e-3)
+    assert doc["train_mse"] <= centred_mse(d.nominal_params)
+    quoted = f"R^2 {doc['val_r2']:.3f} where its frequency-domain fit gives {d.nominal_r2:.3f}"
+    assert (quoted in d.summary()) == (doc["val_r2"] >= d.nominal_r2 + 1e-3)
 
 
 def test_an_extra_pole_pair_is_structure_not_an_effect():
@@ -1048,6 +1080,7 @@ def _check_json_report_schema(d):
     doc = json.loads(json.dumps(d.to_json()))
     assert {"channel", "nominal", "where", "ranking", "verdict", "combined_top2"} <= set(doc)
     assert set(doc["nominal"]) == {"params", "cost_J", "val_r2", "val_tic", "simulates"}
+    assert doc["time_domain_refit"]["val_r2"] == pytest.approx(d.refit.val_r2)  # the time-domain candidates' null
     assert doc["nominal"]["simulates"] is True and "does not simulate" not in d.summary()  # a 30 ms delay's nominal does
     assert {"bands_hz", "worst_hz", "residual_white", "input_residual_peak_lag_s", "amplitude_dependent",
             "noise_limited_bands_hz"} <= set(doc["where"])  # fmt: skip
