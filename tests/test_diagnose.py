@@ -822,6 +822,15 @@ def test_time_delay_case_is_found_estimated_and_reported():
     assert f"time_delay = {ms:.1f} ms (+-{sig_ms:.1f})" in d.summary()
     assert "counts random error only" not in d.summary()  # no structure finding: the model form is the plant's
     _check_json_report_schema(d)
+    # the summary sets the null refit (no effect) beside the verdict's model: below it, level
+    # with it to the 3 quoted decimals, above it
+    assert top.val_r2 - d.nominal_r2 > 0.004
+    for v, phrase in (((d.nominal_r2 + top.val_r2) / 2, None), (top.val_r2 + 4e-4, "do not tell that refit"),
+                      (top.val_r2 + 3e-3, "better than the model with the effect")):  # fmt: skip
+        text = dataclasses.replace(d, refit=dataclasses.replace(d.refit, val_r2=v)).summary()
+        assert f"no effect added (the null the time-domain candidates are tested against), gives R^2 {v:.3f}" in text
+        for p in ("do not tell that refit", "better than the model with the effect"):
+            assert (p in text) == (p == phrase)
 
 
 def _paper_lsim(params: dict, t, u):
@@ -861,6 +870,13 @@ def test_no_effect_case_answers_none():
     assert doc["train_mse"] <= centred_mse(d.nominal_params)
     quoted = f"R^2 {doc['val_r2']:.3f} where its frequency-domain fit gives {d.nominal_r2:.3f}"
     assert (quoted in d.summary()) == (doc["val_r2"] >= d.nominal_r2 + 1e-3)
+    from jaxgwo._report import diagnosis_report_html
+
+    assert "Null refit" in diagnosis_report_html(d, figures=False)
+    for v in (d.nominal_r2 + 0.01, d.nominal_r2 + 5e-4):  # the summary's two none sentences
+        text = dataclasses.replace(d, refit=dataclasses.replace(d.refit, val_r2=v)).summary()
+        assert ("That refit is the better model" in text) == (v >= d.nominal_r2 + 1e-3)
+        assert ("is what the paper model can do" in text) == (v < d.nominal_r2 + 1e-3)
 
 
 def test_an_extra_pole_pair_is_structure_not_an_effect():

@@ -461,10 +461,16 @@ class Diagnosis:
                     f"({100 * self.combined.gap_closed:.0f} % of the gap)."
                 )
             if r is not None and abs(r.val_r2 - before) >= 1e-3:
+                # R^2 quoted to 3 decimals: within 1e-3 the held-out records do not tell the two apart
+                tail = ("." if r.val_r2 < top.val_r2 - 1e-3 else
+                        ": the held-out records do not tell that refit from the model with the effect, so the "
+                        "evidence for the effect is the identification records'." if r.val_r2 <= top.val_r2 + 1e-3 else
+                        ": it predicts the held-out records better than the model with the effect, so the evidence "
+                        "for the effect is the identification records' alone.")  # fmt: skip
                 lines.append(
                     f"For comparison, the {what} refitted to the identification time histories by output error, "
                     f"with no effect added (the null the time-domain candidates are tested against), gives R^2 "
-                    f"{r.val_r2:.3f}."
+                    f"{r.val_r2:.3f}{tail}"
                 )
         if self.suggestion:
             lines.append(self.suggestion)

@@ -235,7 +235,8 @@ def _diagnosis_png(d) -> bytes | None:
 def diagnosis_report_html(d, *, source: str = "", command: str | None = None,
                           figures: bool = True) -> str:
     """The HTML report of a :func:`jaxgwo._diagnose.diagnose` result: summary, verdict,
-    nominal fit, where the gap lies, the candidate ranking and the diagnosis figure."""
+    nominal fit and its time-domain null refit, where the gap lies, the candidate ranking
+    and the diagnosis figure."""
     doc = d.to_json()
     parts = [f"<h1>jaxgwo diagnosis report: {_e(doc.get('channel', ''))} channel</h1>",
              _meta_line({"data": source or None, "command": command})]
@@ -249,6 +250,15 @@ def diagnosis_report_html(d, *, source: str = "", command: str | None = None,
              [_e("validation R²"), _fmt(nom.get("val_r2"), ".4f")],
              [_e("validation TIC"), _fmt(nom.get("val_tic"), ".4f")]]
     parts.append(_table(["quantity", "value"], prow))
+    ref = doc.get("time_domain_refit")
+    if ref:
+        parts.append("<h2>Null refit: the nominal refitted by output error, no effect added</h2>")
+        rrow = [[_e(k), _fmt(v, ".6g")] for k, v in (ref.get("params") or {}).items()]
+        rrow += [[_e("identification output error (mean square)"), _fmt(ref.get("train_mse"), ".4g")],
+                 [_e("validation R²"), _fmt(ref.get("val_r2"), ".4f")],
+                 [_e("validation TIC"), _fmt(ref.get("val_tic"), ".4f")],
+                 [_e("gap closed"), _fmt(ref.get("gap_closed"), ".3f")]]
+        parts.append(_table(["quantity", "value"], rrow))
     where = doc.get("where", {})
     parts.append("<h2>Where the model departs</h2>")
     wrows = [[_e(_label(k)), _cell(v)] for k, v in where.items()]
