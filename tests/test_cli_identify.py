@@ -109,6 +109,7 @@ def test_diagnose_exports_nominal_model_and_reports(tmp_path, monkeypatch, files
     assert meta["top_candidate"]["effect"] == "time_delay"
     assert meta["top_candidate"]["params"] == {"delay_s": 0.031}
     assert meta["combined_top2"]["effects"] == ["time_delay", "sensor_lag"]
+    assert meta["time_domain_refit"]["params"]["omega_s"] == 31.0 and meta["time_domain_refit"]["val_r2"] == 0.6
     text = report.read_text(encoding="utf-8")
     assert_self_contained(text)
     assert "Verdict: time_delay" in text

@@ -138,7 +138,10 @@ class FakeDiagnosis:
                 "combined_top2": {"effects": ["time_delay", "sensor_lag"], "val_r2": 0.72,
                                   "gap_closed": 0.44, "val_tic": 0.2, "cost_J": 79.0,
                                   "params": {}},
-                "skipped": {"cross_coupling": "no off-axis <input>"}, "suggestion": ""}
+                "skipped": {"cross_coupling": "no off-axis <input>"}, "suggestion": "",
+                "time_domain_refit": {"params": {"K": 205.0, "tau": 0.31, "M": 176.0, "omega_s": 31.0,
+                                                 "zeta_s": 0.4}, "effects": {}, "train_mse": 2.5e-4,
+                                      "val_r2": 0.6, "val_tic": 0.25, "gap_closed": 0.2}}
 
 
 def _fake_plot(d, path):
@@ -162,8 +165,9 @@ def test_diagnosis_report_ranking_and_verdict(tmp_path, monkeypatch):
     assert "Verdict: time_delay" in text
     assert "&lt;phase lag&gt;" in text and "delay &amp; lag" in text
     assert "no off-axis &lt;input&gt;" in text
-    nominal, where, ranking = p.tables
+    nominal, refit, where, ranking = p.tables
     assert ["K", "200"] in nominal and ["validation R²", "0.5000"] in nominal
+    assert ["omega_s", "31"] in refit and ["validation R²", "0.6000"] in refit and ["gap closed", "0.200"] in refit
     assert ["bands (Hz)", "1–3, 5–6.5"] in where and ["residual white", "no"] in where
     assert ranking[0][:5] == ["rank", "effect", "parameters", "validation R²", "gap closed"]
     assert ranking[1][:2] == ["1", "time_delay"] and ranking[1][-1] == "yes"

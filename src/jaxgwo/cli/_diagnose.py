@@ -32,8 +32,9 @@ def add_parser(sub) -> None:
             "      --json d.json --plot d.png --report d.html --export nominal.json\n"
             "\n"
             "--export writes the nominal paper model as a jaxgwo model file (or .npz); the\n"
-            "verdict and the best candidate's effect parameters go into its metadata (an\n"
-            "effect such as a delay is not part of the rational transfer function)."
+            "verdict, the best candidate's effect parameters and the paper model refitted by\n"
+            "output error (time_domain_refit) go into its metadata (an effect such as a delay\n"
+            "is not part of the rational transfer function)."
         ),
         formatter_class=HelpFormatter,
     )
@@ -69,8 +70,8 @@ def add_parser(sub) -> None:
 
 
 def export_diagnosis(d, path: str, fmt: str | None, source: str, command: str | None = None) -> str:
-    """The nominal model of ``d``; the verdict and the augmented models' effect parameters
-    (top candidate and the top-two combination) as metadata."""
+    """The nominal model of ``d``; the verdict, the augmented models' effect parameters
+    (top candidate and the top-two combination) and the time-domain null refit as metadata."""
     import jax.numpy as jnp
 
     from .._export import export_model
@@ -88,6 +89,8 @@ def export_diagnosis(d, path: str, fmt: str | None, source: str, command: str | 
             k: top[k] for k in ("effect", "params", "params_sigma", "val_r2", "gap_closed",
                                 "beats_noise")},
         "combined_top2": doc.get("combined_top2"),
+        # the paper model refitted by output error, no effect: the better model where VAL says so
+        "time_domain_refit": doc.get("time_domain_refit"),
     }
     return export_model({d.channel: model}, path, fmt,
                         provenance={"source": source, "command": command or command_line()}, **meta)
