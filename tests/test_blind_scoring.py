@@ -41,12 +41,12 @@ def test_combined_entries_and_failed_cases(blind):
     assert blind.class_order({"verdict": "error", "ranking": []}) == ["none"]
 
 
-def _row(case, truth, verdict, *, order2=("none",), perr=None, r2_after=0.99, r2_true=0.99):
+def _row(case, truth, verdict, *, order2=("none",), perr=None, r2_after=0.99, r2_true=0.99, r2_refit=float("nan")):
     return {"case": case, "truth": truth, "verdict": verdict, "top1": verdict == truth,
             "top2": verdict == truth, "order2": list(order2),
             "identifiable": True, "oracle_z": (5.0, 5.0), "oracle_z_mode": None, "floor_z": None,
             "identifiable_mode": False, "observable": True, "r2_nominal": 0.9, "r2_after": r2_after,
-            "r2_true": r2_true, "param_error": perr, "exercised": None, "plant": "paper", "snr_db": 30.0,
+            "r2_true": r2_true, "r2_refit": r2_refit, "param_error": perr, "exercised": None, "plant": "paper", "snr_db": 30.0,
             "wall_s": 10.0, "structure_hz": None}  # fmt: skip
 
 
@@ -83,3 +83,20 @@ def test_a_failed_case_shows_in_the_r2_target_row(blind, tmp_path):
             _row("case_001", "saturation", "error", r2_after=float("nan"))]  # a diagnosis that raised
     _write(blind, tmp_path, rows)
     assert "(every case) | 50 % (1/2), largest difference nan |" in (tmp_path / "r.md").read_text()
+
+
+def test_the_report_counts_the_none_verdicts_whose_summary_names_the_null_refit(blind, tmp_path):
+    """The summary's rule (REFIT_MARGIN_R2 = 1e-3): 0.0009 above the frequency-domain fit
+    is level, 0.0011 above is named; an effect verdict and a report without the refit (nan)
+    are not counted."""
+    rows = [
+        _row("case_000", "none", "none", r2_after=0.990, r2_true=0.998, r2_refit=0.9911),  # named: 0.008 -> 0.0069
+        _row("case_001", "rotor_flapping", "none", r2_after=0.975, r2_true=0.993, r2_refit=0.992),  # 0.018 -> 0.001
+        _row("case_002", "none", "none", r2_after=0.990, r2_true=0.995, r2_refit=0.9909),  # level
+        _row("case_003", "none", "none", r2_after=0.990, r2_true=0.995),  # no refit in the report
+        _row("case_004", "time_delay", "time_delay", r2_after=0.95, r2_true=0.99, r2_refit=0.99),
+    ]
+    _write(blind, tmp_path, rows)
+    text = (tmp_path / "r.md").read_text()
+    assert ("as the better model, its VAL R^2 0.001 or more above the frequency-domain fit's: \\|R^2 - the true "
+            "model's\\|, median / max | 2/4; frequency-domain fit 0.0130 / 0.0180 -> refit 0.0040 / 0.0069 | |") in text

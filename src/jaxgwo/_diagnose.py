@@ -82,6 +82,10 @@ from ._metrics import r_squared, theil_inequality
 __all__ = ["DIAGNOSE_STAGES", "DiagnoseSettings", "Diagnosis", "TimeDomainRefit", "diagnose", "SEPARATING_EXCITATION",
            "separation_suggestion"]
 
+REFIT_MARGIN_R2 = 1e-3
+"""Held-out R^2 difference below which the summary counts the null refit and another model
+as level: the summary quotes R^2 to 3 decimals."""
+
 SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the data almost equally well; ..."
     frozenset({"sensor_lag", "rotor_flapping"}): (
         "no cyclic excitation separates them: with the paper parameters refitted, a gyro filter and an in-loop "
@@ -409,8 +413,7 @@ class Diagnosis:
             )
         what = "paper model with that mode" if self.structure is not None else "paper model"
         r = self.refit
-        # the refit differs visibly in the quoted digits (R^2 to 3 decimals)
-        refit_better = r is not None and r.val_r2 >= before + 1e-3
+        refit_better = r is not None and r.val_r2 >= before + REFIT_MARGIN_R2
         if self.verdict == "none" and refit_better:
             lines.append(
                 f"No candidate effect beats noise. Refitted to the identification time histories by output error, "
@@ -460,11 +463,11 @@ class Diagnosis:
                     f"With {' + '.join(self.combined.effects)}: R^2 {self.combined.val_r2:.3f} "
                     f"({100 * self.combined.gap_closed:.0f} % of the gap)."
                 )
-            if r is not None and abs(r.val_r2 - before) >= 1e-3:
-                # R^2 quoted to 3 decimals: within 1e-3 the held-out records do not tell the two apart
-                tail = ("." if r.val_r2 < top.val_r2 - 1e-3 else
+            if r is not None and abs(r.val_r2 - before) >= REFIT_MARGIN_R2:
+                tail = ("." if r.val_r2 < top.val_r2 - REFIT_MARGIN_R2 else
                         ": the held-out records do not tell that refit from the model with the effect, so the "
-                        "evidence for the effect is the identification records'." if r.val_r2 <= top.val_r2 + 1e-3 else
+                        "evidence for the effect is the identification records'."
+                        if r.val_r2 <= top.val_r2 + REFIT_MARGIN_R2 else
                         ": it predicts the held-out records better than the model with the effect, so the evidence "
                         "for the effect is the identification records' alone.")  # fmt: skip
                 lines.append(
