@@ -510,7 +510,7 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
     from jaxgwo._diagnose import REFIT_MARGIN_R2
 
     nones = [r for r in rows if r["verdict"] == "none"]
-    named = [r for r in nones if r.get("r2_refit", np.nan) >= r["r2_after"] + REFIT_MARGIN_R2]
+    named = [r for r in nones if r["r2_refit"] >= r["r2_after"] + REFIT_MARGIN_R2]
     cell = f"{len(named)}/{len(nones)}"
     if named:
         d0 = [abs(r["r2_after"] - r["r2_true"]) for r in named]

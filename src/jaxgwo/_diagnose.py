@@ -62,6 +62,7 @@ from ._diagnose_which import (
     fit_cross_coupling,
     fit_linear_candidates,
     fit_nonlinear_candidates,
+    held_out_fit,
     output_error_evidence,
     refit_linear_time_domain,
     score_candidate,
@@ -77,7 +78,6 @@ from ._identify import (
     identify_channels,
     independent_points,
 )
-from ._metrics import r_squared, theil_inequality
 
 __all__ = ["DIAGNOSE_STAGES", "DiagnoseSettings", "Diagnosis", "TimeDomainRefit", "diagnose", "SEPARATING_EXCITATION",
            "separation_suggestion"]
@@ -655,12 +655,7 @@ def _time_domain_refit(null, null_spec, val_predicted, val_measured, base_r2: fl
     """:class:`TimeDomainRefit` of the null refit ``null`` (a :class:`TimeFit`), whose model
     is ``null_spec`` and held-out prediction ``val_predicted``, against a base whose held-out
     R^2 is ``base_r2``."""
-    y = np.concatenate(val_measured)
-    p = np.concatenate(val_predicted)
-    p = np.where(np.isfinite(p), p, 0.0)  # as score_candidate: a simulation that blows up predicts nothing
-    r2 = float(r_squared(jnp.asarray(y), jnp.asarray(p)))
-    tic = float(theil_inequality(jnp.asarray(y), jnp.asarray(p)))
-    gap = (r2 - base_r2) / (1.0 - base_r2) if base_r2 < 1.0 else 0.0
+    _y, _p, r2, tic, gap = held_out_fit(val_measured, val_predicted, base_r2)
     k = np.asarray(null_spec.params, float) * np.array([null_spec.gain_scale, 1.0, 1.0, 1.0, 1.0])
     return TimeDomainRefit(
         params=dict(zip(("K", "tau", "M", "omega_s", "zeta_s"), map(float, k))),
@@ -966,8 +961,7 @@ def diagnose(
     gyro = _gyro_path(train, channel, tt, 1.0 / dt, np.asarray(resp.w), ids.coherence_threshold)
     # a gyro filter the attitude shows is measured there: its candidate is fitted with that cutoff
     held = {1: math.log(gyro.cutoff_hz)} if _gyro_filter_held(gyro, settings.alpha) else None
-    yv, pv = jnp.asarray(np.concatenate(val_meas)), jnp.asarray(np.concatenate(val_nom))
-    r2_nom, tic_nom = float(r_squared(yv, pv)), float(theil_inequality(yv, pv))
+    _y, _p, r2_nom, tic_nom, _gap = held_out_fit(val_meas, val_nom, 0.0)
 
     # -- which
     skipped: dict[str, str] = {}
