@@ -831,6 +831,17 @@ def test_time_delay_case_is_found_estimated_and_reported():
         assert f"no effect added (the null the time-domain candidates are tested against), gives R^2 {v:.3f}" in text
         for p in ("do not tell that refit", "better than the model with the effect"):
             assert (p in text) == (p == phrase)
+    # a candidate that passed against the null refit alone, below the nominal (made up here):
+    # the summary says why the nominal predicts better and quotes the refit
+    rf = dataclasses.replace(d.refit, val_r2=d.nominal_r2 - 0.02)
+    for flag in (0.0, 1.0):
+        low = dataclasses.replace(top, val_r2=d.nominal_r2 - 0.01, gap_closed=-0.2,
+                                  detail=top.detail | {"confirmed_against_null_refit_only": flag})  # fmt: skip
+        text = dataclasses.replace(d, ranking=(low, *d.ranking[1:]), refit=rf).summary()
+        assert f"Adding it lowers the held-out R^2 ({d.nominal_r2:.3f} -> {low.val_r2:.3f}" in text
+        assert f"gives R^2 {rf.val_r2:.3f}." in text
+        assert ("model-form error, not the effect's" in text) == bool(flag)
+        assert ("the held-out records do not confirm it" in text) == (not flag)
 
 
 def _paper_lsim(params: dict, t, u):
@@ -1396,3 +1407,38 @@ def test_a_nan_score_sorts_last():
     ranking = [_scored("backlash", float("nan"), ok=False), _scored("time_delay", 4.8), _scored("sensor_lag", -10.0, ok=False)]
     assert [c.effects[0] for c in sorted(ranking, key=lambda c: -c.score)][0] == "backlash"  # the trap
     assert [c.effects[0] for c in sorted(ranking, key=_best_first)] == ["time_delay", "sensor_lag", "backlash"]
+
+
+def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
+    """A nonlinear candidate is the null time-domain refit plus the nonlinearity.  Where
+    that refit predicts the held-out records worse than the frequency-domain nominal, a
+    candidate that beats the refit (z above ``z_min``) but not the nominal passes only with
+    ``gap_against_baseline``; its reported gap stays the nominal's (here negative).  One
+    that falls below the refit fails either way, and the rule changes nothing for one
+    that beats the nominal.  The R^2 values are checked against a plain NumPy formula."""
+    from jaxgwo._diagnose_which import score_candidate
+
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 20.0, 0.02)
+    y = np.sin(2.0 * np.pi * 0.7 * t) + 0.4 * np.sin(2.0 * np.pi * 2.3 * t + 1.0)
+    err = rng.standard_normal(t.size)
+
+    def r2(p):
+        return 1.0 - np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2)
+
+    nominal, refit = y + 0.10 * err, y + 0.20 * err
+
+    def scored(cand, against):
+        return score_candidate(("rate_limit",), {}, {}, [cand], [y], [nominal], r2(nominal), 1.0, 1.0, 500.0, 1, 0.02,
+                               0.02, 0.0, baseline_predicted=[refit], extra_train_p=1e-12, j_required=False,
+                               z_min=1.0, min_gap=0.0, gap_against_baseline=against)  # fmt: skip
+
+    between = y + 0.15 * err
+    assert r2(refit) < r2(between) < r2(nominal)
+    for against in (False, True):
+        sc = scored(between, against)
+        assert sc.z_score > 1.0 and sc.val_r2 == pytest.approx(r2(between), abs=1e-9)
+        assert sc.gap_closed == pytest.approx((r2(between) - r2(nominal)) / (1.0 - r2(nominal)), abs=1e-9)
+        assert sc.gap_closed < 0.0 and sc.beats_noise == against
+        assert not scored(y + 0.25 * err, against).beats_noise  # worse than the refit too
+        assert scored(y + 0.05 * err, against).beats_noise  # better than both

@@ -453,9 +453,15 @@ class Diagnosis:
             else:
                 # a filter measured on the gyro path, or a linear candidate the held-out records
                 # only had not to contradict (DiagnoseSettings: z_min, min_gap)
-                why = ("its evidence is the gyro path against the attitude, which does not depend on the model; "
-                       "the model does not carry it to these records" if top.detail.get("cutoff_from_gyro_path")
-                       else "the held-out records do not confirm it")  # fmt: skip
+                if top.detail.get("cutoff_from_gyro_path"):
+                    why = ("its evidence is the gyro path against the attitude, which does not depend on the model; "
+                           "the model does not carry it to these records")
+                elif top.detail.get("confirmed_against_null_refit_only"):
+                    why = (f"the held-out records confirm it against the {what} refitted to the identification time "
+                           "histories without it (below), which predicts them worse still, so the frequency-domain "
+                           "fit's lead is that time-domain fit's model-form error, not the effect's")
+                else:
+                    why = "the held-out records do not confirm it"
                 lines.append(f"Adding it lowers the held-out R^2 ({before:.3f} -> {top.val_r2:.3f}, "
                              f"{100 * top.gap_closed:.0f} % of the {gap}): {why}.")  # fmt: skip
             if self.combined is not None:
@@ -463,8 +469,9 @@ class Diagnosis:
                     f"With {' + '.join(self.combined.effects)}: R^2 {self.combined.val_r2:.3f} "
                     f"({100 * self.combined.gap_closed:.0f} % of the gap)."
                 )
-            if r is not None and abs(r.val_r2 - before) >= REFIT_MARGIN_R2:
-                tail = ("." if r.val_r2 < top.val_r2 - REFIT_MARGIN_R2 else
+            against_refit = bool(top.detail.get("confirmed_against_null_refit_only"))
+            if r is not None and (abs(r.val_r2 - before) >= REFIT_MARGIN_R2 or against_refit):
+                tail = ("." if r.val_r2 < top.val_r2 - REFIT_MARGIN_R2 or against_refit else
                         ": the held-out records do not tell that refit from the model with the effect, so the "
                         "evidence for the effect is the identification records'."
                         if r.val_r2 <= top.val_r2 + REFIT_MARGIN_R2 else
@@ -987,9 +994,11 @@ def diagnose(
                                        fs, np.asarray(resp.w), prep.sign, ids)  # fmt: skip
 
     def score(base: _Base, effects, params, sigma, spec, cost, J0, n_params, baseline=None, extra_p=None, j_required=True,
-              evidence=None, time_domain=False, alpha=None, confirm=True, predicted=None, veto=True):
+              evidence=None, time_domain=False, alpha=None, confirm=True, predicted=None, veto=True,
+              gap_against_baseline=False):
         """``predicted``: ``spec``'s held-out simulation where it is at hand already.
-        ``veto=False``: the held-out records score the candidate but cannot refuse it."""
+        ``veto=False``: the held-out records score the candidate but cannot refuse it.
+        ``gap_against_baseline``: as :func:`score_candidate`'s."""
         pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv] if predicted is None else list(predicted)
         z_min = settings.z_min_time if time_domain and confirm else settings.z_min
         min_gap = 0.0 if time_domain or "structural_mode" in effects else settings.min_gap
@@ -997,7 +1006,8 @@ def diagnose(
         return score_candidate(tuple(effects), params, sigma, pred, val_meas, base.val_predicted, base.val_r2, cost, J0,
                                m_eff, n_params, tc, dt, ag, baseline_predicted=baseline, extra_train_p=extra_p,
                                j_required=j_required, evidence=evidence, alpha=settings.alpha if alpha is None else alpha,
-                               z_min=z_min if veto else -math.inf, min_gap=min_gap if veto else -math.inf)  # fmt: skip
+                               z_min=z_min if veto else -math.inf, min_gap=min_gap if veto else -math.inf,
+                               gap_against_baseline=gap_against_baseline)  # fmt: skip
 
     def rank(base: _Base, names: Sequence[str], k_lin, k_nl, stage: int, what: str, prior=None):
         """Every candidate of ``names`` added to ``base``, refitted and scored against it.
@@ -1174,8 +1184,19 @@ def diagnose(
                 # an effect that cuts the null refit's identification error by a large factor
                 # needs the held-out records only not to contradict it, as a linear one does
                 strong = null.train_mse >= settings.strong_error_ratio * f.train_mse
+                # The candidate is the null refit with the nonlinearity added.  Where that refit
+                # predicts the held-out records worse than the frequency-domain base (an R-50's
+                # extra pole pair, fitted to J, carries model-form error the output-error fit
+                # does not share), the effect's gain on them shows against the refit alone:
+                # seed-113 case_020, an R-50 rate limit at output-error p 4e-67 (error cut
+                # x1.37, the amplitude test agreeing), raised the refit's held-out R^2
+                # 0.966 -> 0.976 (z 1.06) below the pair model's 0.981 and was refused.  That
+                # gap may then be the refit's, but only for evidence that passes without the
+                # amplitude test's backing: F-test at alpha and the effect size.
+                plain = p_mse < settings.alpha and null.train_mse >= settings.min_error_ratio * f.train_mse
                 j_f = sim_J(spec)
-                kw = dict(j_required=False, evidence=ev, time_domain=True, alpha=level, confirm=not strong)
+                kw = dict(j_required=False, evidence=ev, time_domain=True, alpha=level, confirm=not strong,
+                          gap_against_baseline=plain)
                 sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_null,
                            extra_p=p_mse, **kw)  # fmt: skip
                 sized = _effect_size_passes(null.train_mse / f.train_mse, settings.min_error_ratio, corroborated,
@@ -1186,7 +1207,8 @@ def diagnose(
                 det = {"train_mse": f.train_mse, "null_train_mse": null.train_mse, "n_eff_train": n_nl,
                        "train_corr_time_s": tc_tr, "p_val_tc": f_test_p(null.train_mse, f.train_mse, 1, n_train_eff - 4),
                        "p_output_error": f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4),
-                       "amplitude_corroborates": float(corroborated), "effect_size_passes": float(sized)}  # fmt: skip
+                       "amplitude_corroborates": float(corroborated), "effect_size_passes": float(sized),
+                       "confirmed_against_null_refit_only": float(sc.beats_noise and not sc.gap_closed > 0.0)}  # fmt: skip
                 scored.append(dataclasses.replace(sc, detail=det))
         return scored, specs, fits, lin_from, output_error, refit
 
