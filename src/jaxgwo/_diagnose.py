@@ -133,7 +133,10 @@ class DiagnoseSettings:
     of the R^2 gap (:func:`jaxgwo._diagnose_which.score_candidate`).  The time-domain
     candidates (nonlinear, cross-coupling), whose identification evidence is an output
     error with strongly correlated residuals, must also be confirmed on the held-out
-    records: z-score above ``z_min_time`` and a positive gap.  So must a linear candidate
+    records: z-score above ``z_min_time`` and a positive gap (for a nonlinear one whose
+    evidence passes at ``alpha`` with the effect size, the gap its own null refit leaves
+    may stand in for the nominal's: :func:`jaxgwo._diagnose_which.score_candidate`'s
+    ``gap_against_baseline``).  So must a linear candidate
     that passes not on ``J`` but on its time-domain check (its output-error refit against
     the null refit, F-test at ``alpha`` without the nonlinear effect size), which counts
     where no linear candidate passes on ``J``, or where ``J`` finds this one but its ``J``
