@@ -1405,6 +1405,13 @@ def output_error_evidence(before: float, after: float, n_params: int, n_eff: flo
     return -(math.log(after / before) + n_params * math.log(n_eff) / n_eff)
 
 
+def _gap_closed(r2: float, base_r2: float) -> float:
+    """The fraction of the held-out R^2 gap a base of R^2 ``base_r2`` leaves that a model of
+    R^2 ``r2`` closes, ``(R2_after - R2_before) / (1 - R2_before)`` (issue 5's "how far"; 0
+    where the base leaves no gap)."""
+    return (r2 - base_r2) / (1.0 - base_r2) if base_r2 < 1.0 else 0.0
+
+
 def held_out_fit(measured: Sequence[np.ndarray], predicted: Sequence[np.ndarray], base_r2: float):
     """``(y, p, R^2, TIC, gap closed)`` of a held-out prediction: the records concatenated,
     the prediction with its non-finite samples set to zero (an unstable or overflowing
@@ -1415,8 +1422,7 @@ def held_out_fit(measured: Sequence[np.ndarray], predicted: Sequence[np.ndarray]
     p = np.where(np.isfinite(p), p, 0.0)
     r2 = float(r_squared(jnp.asarray(y), jnp.asarray(p)))
     tic = float(theil_inequality(jnp.asarray(y), jnp.asarray(p)))
-    gap = (r2 - base_r2) / (1.0 - base_r2) if base_r2 < 1.0 else 0.0
-    return y, p, r2, tic, gap
+    return y, p, r2, tic, _gap_closed(r2, base_r2)
 
 
 def score_candidate(
@@ -1464,8 +1470,7 @@ def score_candidate(
     p_train = (p_j if extra_train_p is None else max(p_j, extra)) if j_required else extra
     closes = gap > min_gap
     if gap_against_baseline and not closes:
-        r2_b = float(r_squared(jnp.asarray(y), jnp.asarray(pb)))
-        closes = r2_b < 1.0 and (r2 - r2_b) / (1.0 - r2_b) > min_gap
+        closes = _gap_closed(r2, float(r_squared(jnp.asarray(y), jnp.asarray(pb)))) > min_gap
     ok = bool(p_train < alpha and (dbic < 0.0 or not j_required) and z > z_min and closes)
     fit_term = -dbic / m if evidence is None else evidence
     score = fit_term + val_weight * gap + 0.05 * agreement - (0.0 if ok else 10.0)
