@@ -86,6 +86,7 @@ __all__ = [
     "NonlinearOutputError",
     "LinearOutputError",
     "refit_linear_time_domain",
+    "with_fixed_modes",
     "simulated_response_cost",
     "f_test_p",
     "output_error_evidence",
@@ -227,6 +228,20 @@ def _flipped_objective(objective: CiferObjective) -> CiferObjective:
     """The CIFER objective of the negated response (phase turned by 180 deg)."""
     ph = jnp.mod(objective.phase_deg + 360.0, 360.0) - 180.0
     return eqx.tree_at(lambda o: o.phase_deg, objective, ph)
+
+
+def with_fixed_modes(objective: CiferObjective, modes: Sequence[tuple[float, float, float]]) -> CiferObjective:
+    """The CIFER objective of the measured response divided by the pole pairs ``modes``
+    (each ``(freq_hz, zeta_p, zeta_z)``, as :func:`structural_mode_response`): ``J`` of a
+    model under it is ``J`` of that model times the pairs under ``objective``, since ``J``
+    compares dB and wrapped phase, which a fixed factor shifts alike in model and data.
+    A structure finding's pair is held so while a resonance is fitted beside it."""
+    h = jnp.ones_like(objective.w).astype(jnp.complex128)
+    for freq_hz, zeta_p, zeta_z in modes:
+        h = h * structural_mode_response(objective.w, freq_hz, zeta_p, zeta_z)
+    db = 0.5 * (20.0 / math.log(10.0)) * jnp.log(jnp.abs(h) ** 2)
+    return eqx.tree_at(lambda o: (o.magnitude_db, o.phase_deg), objective,
+                       (objective.magnitude_db - db, objective.phase_deg - jnp.rad2deg(jnp.angle(h))))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -469,6 +484,10 @@ class ModelSpec:
     params: np.ndarray
     effects: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     gain_scale: float = 1.0
+    fixed_modes: tuple[tuple[float, float, float], ...] = ()
+    """Pole pairs held as they are, each ``(freq_hz, zeta_p, zeta_z)``, applied as a
+    ``structural_mode`` is: a structure finding's pair when a resonance is fitted beside
+    it (the ``structural_mode`` of ``effects`` is then that resonance)."""
 
 
 class _ServoParams(eqx.Module):
@@ -555,15 +574,20 @@ def _delayed(t: np.ndarray, u: np.ndarray, delay: float) -> np.ndarray:
     return np.interp(t - delay, t, u, left=0.0)
 
 
-def _post_filter(effects) -> tuple[np.ndarray, np.ndarray]:
+def _post_filter(effects, fixed_modes=()) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of the gyro-side filters: the sensor lag, the structural
+    mode, and the ``fixed_modes`` (:attr:`ModelSpec.fixed_modes`)."""
     num, den = np.array([1.0]), np.array([1.0])
     if "sensor_lag" in effects:
         den = np.polymul(den, [1.0 / (2.0 * np.pi * effects["sensor_lag"]["cutoff_hz"]), 1.0])
+    modes = list(fixed_modes)
     if "structural_mode" in effects:
         e = effects["structural_mode"]
-        wn = 2.0 * np.pi * e["freq_hz"]
-        num = np.polymul(num, [1.0, 2.0 * e["zeta_z"] * wn, wn * wn])
-        den = np.polymul(den, [1.0, 2.0 * e["zeta_p"] * wn, wn * wn])
+        modes.append((e["freq_hz"], e["zeta_p"], e["zeta_z"]))
+    for freq_hz, zeta_p, zeta_z in modes:
+        wn = 2.0 * np.pi * freq_hz
+        num = np.polymul(num, [1.0, 2.0 * zeta_z * wn, wn * wn])
+        den = np.polymul(den, [1.0, 2.0 * zeta_p * wn, wn * wn])
     return num, den
 
 
@@ -602,7 +626,7 @@ def simulate_model(spec: ModelSpec, t: np.ndarray, u: np.ndarray, u_off: np.ndar
         u = u + eff["cross_coupling"]["gain"] * np.asarray(u_off, float)
     u = _delayed(t, u, eff.get("time_delay", {}).get("delay_s", 0.0))
     rden = _rotor_den(tau, m, eff.get("rotor_flapping", {}).get("tau_f", 0.0))
-    pnum, pden = _post_filter(eff)
+    pnum, pden = _post_filter(eff, spec.fixed_modes)
     tj = jnp.asarray(t)
     if any(n in eff for n in NONLINEAR):
         swash = _nonlinear_servo(_servo_params(spec, eff), jnp.asarray(u), float(t[1] - t[0]))
@@ -637,7 +661,7 @@ class TimeFit:
         for i, name in ((1, "tau"), (2, "M"), (3, "omega_s"), (4, "zeta_s")):
             if name in self.refit:
                 p[i] = self.refit[name]
-        return ModelSpec(p, dict(base.effects) | dict(self.params), self.gain_scale)
+        return ModelSpec(p, dict(base.effects) | dict(self.params), self.gain_scale, base.fixed_modes)
 
 
 def _autocovariance(v: np.ndarray, max_lag: int) -> np.ndarray:
@@ -749,6 +773,8 @@ class LinearOutputError(eqx.Module):
     t: Float[Array, " n"]
     gain: Float[Array, ""]
     names: tuple[str, ...] = eqx.field(static=True)
+    fixed_modes: tuple[tuple[float, float, float], ...] = eqx.field(static=True, default=())
+    """Pole pairs held as they are (:attr:`ModelSpec.fixed_modes`)."""
 
     def transfer_function(self, x):
         z = x[:6]
@@ -765,7 +791,8 @@ class LinearOutputError(eqx.Module):
             wn, zp, zz = 2.0 * jnp.pi * jnp.exp(z[3]), jnp.exp(z[4]), jnp.exp(z[5])
             num = jnp.convolve(num, jnp.stack([jnp.ones(()), 2.0 * zz * wn, wn * wn]))
             den = jnp.convolve(den, jnp.stack([jnp.ones(()), 2.0 * zp * wn, wn * wn]))
-        return num, den
+        fnum, fden = _post_filter({}, self.fixed_modes)
+        return jnp.convolve(num, jnp.asarray(fnum)), jnp.convolve(den, jnp.asarray(fden))
 
     def outputs(self, x) -> Float[Array, "rec n"]:
         num, den = self.transfer_function(x)
@@ -785,7 +812,7 @@ class LinearOutputError(eqx.Module):
 
 def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], starts: Sequence[np.ndarray],
                              correlation_time_s: float = 0.1, held: Sequence[str] = (),
-                             screened: Sequence[np.ndarray] = ()) -> TimeFit | None:
+                             screened: Sequence[np.ndarray] = (), z_hi: np.ndarray | None = None) -> TimeFit | None:
     r"""Refit the paper model with the linear effects ``names`` (the base's own, such as a
     structure finding's mode, among them: those in ``held`` keep the starts' values, as
     the null refit keeps them) by output error on the identification records
@@ -795,7 +822,8 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     on the null refit's servo and rotor term), the best kept.  The servo and rotor may
     move a factor 4 from each start.  Of the further starts ``screened`` only the one with
     the smallest output error is refined (one simulation each instead of a Gauss-Newton
-    run).
+    run).  ``z_hi`` replaces the top of the effect coordinates' box (default
+    ``_Z_HI_STRUCTURE``).
 
     This is the time-domain check of a linear candidate fitted on ``J``: against the
     null refit by output error (:func:`fit_nonlinear_candidates`) its evidence is the same
@@ -814,14 +842,14 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     names = tuple(names)
     u, y, mask, t, dt = _padded(train, 0.0)
     obj = LinearOutputError(jnp.asarray(u), jnp.asarray(y), jnp.asarray(mask), jnp.asarray(t),
-                            jnp.asarray(float(base.params[0])), names)  # fmt: skip
+                            jnp.asarray(float(base.params[0])), names, tuple(base.fixed_modes))  # fmt: skip
     act = _active_mask(names)
     own = act & ~_active_mask(held)
     free = np.r_[np.flatnonzero(own), np.arange(6, 10)]
     z_lo = np.where(act, _Z_LO, _Z_NEUTRAL)
     if act[2]:
         z_lo[2] = _FLAP_LO_TIME_DOMAIN_S
-    z_hi = np.where(act, _Z_HI_STRUCTURE, _Z_NEUTRAL + 1e-9)
+    z_hi = np.where(act, _Z_HI_STRUCTURE if z_hi is None else np.asarray(z_hi, float), _Z_NEUTRAL + 1e-9)
     best, e_best, jac_best = None, math.inf, None
     starts = list(starts)
     if len(screened):
@@ -1009,7 +1037,7 @@ def nonlinear_objectives(base: ModelSpec, train, names: Sequence[str]) -> list[N
     u, y, mask, t, dt = _padded(train, base.effects.get("time_delay", {}).get("delay_s", 0.0))
     tau_f = float(base.effects.get("rotor_flapping", {}).get("tau_f", 0.0))
     cubic = tau_f > _FLAP_NEGLIGIBLE_S
-    pnum, pden = _post_filter(base.effects)
+    pnum, pden = _post_filter(base.effects, base.fixed_modes)
     out = []
     for n in names:
         which = np.array([n == "rate_limit", n == "backlash", n == "saturation"], float)
