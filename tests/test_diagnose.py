@@ -349,6 +349,19 @@ def test_a_resonance_is_fitted_beside_a_held_pole_pair():
     assert beside.cost_J < 1e-3 < alone.cost_J
 
 
+def test_a_resonance_beside_a_held_pair_counts_only_inside_its_box():
+    """The fits the R-50 blind cases gave beside a held pair: on the 3 Hz floor at the
+    0.2 pole-damping cap (a flapping lag's), at the zero-damping cap (a long delay's) or
+    at the pole-damping floor are edges of the box; near a true resonance they lay inside."""
+    from jaxgwo._diagnose import _on_box_edge
+
+    edges = [(3.0, 0.2, 0.14), (8.49, 0.087, 1.5), (16.35, 0.01, 0.5), (45.0, 0.05, 0.2), (9.0, 0.05, 0.02)]
+    inside = [(13.54, 0.089, 0.26), (11.28, 0.041, 0.127), (3.2, 0.19, 0.14)]
+    keys = ("freq_hz", "zeta_p", "zeta_z")
+    assert all(_on_box_edge(dict(zip(keys, v))) for v in edges)
+    assert not any(_on_box_edge(dict(zip(keys, v))) for v in inside)
+
+
 def test_held_pole_pairs_simulate_as_the_product_transfer_function():
     """A model with a resonance and a held pole pair (``ModelSpec.fixed_modes``), simulated
     by ``simulate_model`` and by the time-domain check's ``LinearOutputError``, against
