@@ -1150,7 +1150,7 @@ def diagnose(
             an R-50 could be the verdict (0/9 over the stored blind seeds).  A fit that
             stops on an edge of its box (:func:`_on_box_edge`) is scored but cannot beat
             noise, and its output-error refit cannot stand in for it."""
-            obj, x0, seed, sv = base.start
+            obj, x0, _seed, sv = base.start
             m = base.spec.effects["structural_mode"]
             fixed = ((m["freq_hz"], m["zeta_p"], m["zeta_z"]),)
             own = ("structural_mode",)
