@@ -318,15 +318,14 @@ def test_a_resonance_is_fitted_beside_a_held_pole_pair():
     objective is the original's, not an approximation), and the one ``structural_mode``
     slot fitted under it recovers the resonance, which the slot alone, without the pair
     held, cannot fit as well."""
+    from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose_which import AugmentedCifer, _active_mask, fit_linear_candidates, with_fixed_modes
+    from jaxgwo._models import ParameterMap
 
     pair, res = (1.7, 0.2, 0.7), (6.0, 0.04, 0.12)
     sign = float(np.sign(float(MODEL.K)))
     resp = _response(lambda w: sign * MODEL.frequency_response(w) * _mode_np(np.asarray(w), *pair)
                      * _mode_np(np.asarray(w), *res))  # fmt: skip
-    from jaxgwo._cost import CiferObjective
-    from jaxgwo._models import ParameterMap
-
     obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
     x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
     held = with_fixed_modes(obj, [pair])

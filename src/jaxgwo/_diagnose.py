@@ -548,6 +548,8 @@ _MODE_AGREEMENT_ZETA_P = 0.2
 """The largest fitted pole damping whose ``structural_mode`` counts as the lightly damped
 resonance step 2 detects (the vocabulary's draws reach 0.08; a broad pole pair that
 mimics a lag fits 0.2-0.7, seed-41 development cases)."""
+_MODE_AGREEMENT_FACTOR = 1.25
+"""How far (a factor) a fitted mode's frequency may lie from the detected resonance."""
 _Z_HI_SECOND_PAIR = np.r_[_Z_HI[:4], math.log(_MODE_AGREEMENT_ZETA_P), _Z_HI[5]]
 """The top of the box of a resonance fitted beside a structure finding's pole pair: a
 lightly damped one.  A broad pair there refits that pair's model-form error instead
@@ -567,10 +569,6 @@ def _on_box_edge(mode: Mapping[str, float]) -> bool:
     z = np.log([mode["freq_hz"], mode["zeta_p"], mode["zeta_z"]])
     lo, hi = _Z_LO[3:6], _Z_HI_SECOND_PAIR[3:6]
     return bool(np.any(z <= lo + 1e-3) or np.any(z >= hi - 1e-3))
-
-
-_MODE_AGREEMENT_FACTOR = 1.25
-"""How far (a factor) a fitted mode's frequency may lie from the detected resonance."""
 
 
 def _mode_agreement(fm: FrequencyMismatch, params: dict | None) -> float:

@@ -64,7 +64,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from . import _gwo as G
-from ._cost import CiferObjective
+from ._cost import CiferObjective, _db_phase
 from ._effects import EFFECTS, rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
 from ._identify import ZETA_S_RANGE, _jacobian, _residuals  # the jitted residual/Jacobian pair
 from ._metrics import r_squared, theil_inequality
@@ -239,9 +239,9 @@ def with_fixed_modes(objective: CiferObjective, modes: Sequence[tuple[float, flo
     h = jnp.ones_like(objective.w).astype(jnp.complex128)
     for freq_hz, zeta_p, zeta_z in modes:
         h = h * structural_mode_response(objective.w, freq_hz, zeta_p, zeta_z)
-    db = 0.5 * (20.0 / math.log(10.0)) * jnp.log(jnp.abs(h) ** 2)
+    db, ph = _db_phase(h)
     return eqx.tree_at(lambda o: (o.magnitude_db, o.phase_deg), objective,
-                       (objective.magnitude_db - db, objective.phase_deg - jnp.rad2deg(jnp.angle(h))))  # fmt: skip
+                       (objective.magnitude_db - db, objective.phase_deg - ph))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -791,8 +791,10 @@ class LinearOutputError(eqx.Module):
             wn, zp, zz = 2.0 * jnp.pi * jnp.exp(z[3]), jnp.exp(z[4]), jnp.exp(z[5])
             num = jnp.convolve(num, jnp.stack([jnp.ones(()), 2.0 * zz * wn, wn * wn]))
             den = jnp.convolve(den, jnp.stack([jnp.ones(()), 2.0 * zp * wn, wn * wn]))
-        fnum, fden = _post_filter({}, self.fixed_modes)
-        return jnp.convolve(num, jnp.asarray(fnum)), jnp.convolve(den, jnp.asarray(fden))
+        if self.fixed_modes:  # static: no work added for the candidates without them
+            fnum, fden = _post_filter({}, self.fixed_modes)
+            num, den = jnp.convolve(num, jnp.asarray(fnum)), jnp.convolve(den, jnp.asarray(fden))
+        return num, den
 
     def outputs(self, x) -> Float[Array, "rec n"]:
         num, den = self.transfer_function(x)
