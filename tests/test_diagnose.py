@@ -930,6 +930,11 @@ def test_time_delay_case_is_found_estimated_and_reported():
         assert f"gives R^2 {rf.val_r2:.3f}." in text
         assert ("model-form error, not the effect's" in text) == bool(flag)
         assert ("the held-out records do not confirm it" in text) == (not flag)
+    # a verdict the held-out records carried (score_candidate's held_out_alpha; made up here)
+    for flag in (0.0, 1.0):
+        held = dataclasses.replace(top, detail=top.detail | {"passed_on_held_out_records": flag})
+        text = dataclasses.replace(d, ranking=(held, *d.ranking[1:])).summary()
+        assert (f"The held-out records carry its evidence (z {top.z_score:.1f})" in text) == bool(flag)
 
 
 def _paper_lsim(params: dict, t, u):
@@ -1308,6 +1313,7 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
                                       ({"strong_error_ratio": 0.5}, "strong_error_ratio must be a number >= 1"),
                                       ({"structure_zeta_z": 0.0}, "structure_zeta_z must be a positive number"),
                                       ({"lag_over_delay": -0.1}, "lag_over_delay must be a score margin >= 0"),
+                                      ({"alpha_held_out_first": 1.0}, r"alpha_held_out_first must be a level in \[0, 1\)"),
                                       ({"wolves": 3}, "wolves")])  # fmt: skip
 def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
     with pytest.raises(ValueError, match=what):
@@ -1533,3 +1539,50 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
         assert sc.gap_closed < 0.0 and sc.beats_noise == against
         assert not scored(y + 0.25 * err, against).beats_noise  # worse than the refit too
         assert scored(y + 0.05 * err, against).beats_noise  # better than both
+
+
+def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
+    """``held_out_alpha``: strong held-out evidence (z at least the one-sided normal
+    quantile of ``alpha``, 3.09 at 1e-3) with weak identification support (``extra_train_p``
+    below ``held_out_alpha``) passes; weak held-out evidence, an identification p above
+    that level, or a negative gap does not, and without ``held_out_alpha`` nothing changes.
+    The z-score is checked against a plain NumPy block z of the squared-error reduction."""
+    from statistics import NormalDist
+
+    from jaxgwo._diagnose_which import score_candidate
+
+    rng = np.random.default_rng(5)
+    dt = 0.02
+    t = np.arange(0.0, 24.0, dt)
+    y = np.sin(2.0 * np.pi * 0.5 * t) + 0.3 * np.sin(2.0 * np.pi * 1.7 * t)
+    err = rng.standard_normal(t.size)
+
+    def r2(p):
+        return 1.0 - np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2)
+
+    nominal = y + 0.10 * err
+
+    def scored(cand, p_train, held_out_alpha=0.05):
+        return score_candidate(("cross_coupling",), {}, {}, [cand], [y], [nominal], r2(nominal), 1.0, 1.0, 500.0, 1,
+                               dt, dt, 0.0, extra_train_p=p_train, j_required=False, z_min=1.0, min_gap=0.0,
+                               held_out_alpha=held_out_alpha)  # fmt: skip
+
+    def block_z(cand):  # 0.5 s blocks: the correlation time here is one sample
+        d = (y - nominal) ** 2 - (y - cand) ** 2
+        b = int(round(0.5 / dt))
+        m = d[: d.size // b * b].reshape(-1, b).mean(axis=1)
+        return m.mean() / (m.std(ddof=1) / np.sqrt(m.size))
+
+    quantile = NormalDist().inv_cdf(1.0 - 1e-3)
+    other = np.random.default_rng(6).standard_normal(t.size)  # errors of their own, partly shared
+    strong, weak = (y + k * (0.8 * err + 0.6 * other) for k in (0.09, 0.095))
+    assert scored(strong, 0.02).z_score == pytest.approx(block_z(strong), rel=1e-6)
+    assert scored(strong, 0.02).z_score > quantile and 1.0 < scored(weak, 0.02).z_score < quantile
+    assert scored(strong, 0.02).gap_closed > 0.0
+    assert scored(strong, 0.02).beats_noise  # the held-out records carry it
+    assert not scored(strong, 0.02, None).beats_noise  # the rule off: p 0.02 fails alpha
+    assert not scored(strong, 0.2).beats_noise  # the identification records do not support it
+    assert not scored(weak, 0.02).beats_noise  # the held-out evidence is not strong enough
+    assert scored(weak, 1e-4).beats_noise  # the usual way round still passes
+    worse = y + 0.11 * (0.8 * err + 0.6 * other)
+    assert not scored(worse, 0.02).beats_noise and not scored(worse, 1e-4).beats_noise

@@ -56,6 +56,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from statistics import NormalDist
 
 import equinox as eqx
 import jax
@@ -1460,7 +1461,7 @@ def score_candidate(
     nominal_predicted: Sequence[np.ndarray], nominal_r2: float, cost_J: float, nominal_J: float, m_eff: float,
     n_params: int, correlation_time_s: float, dt: float, agreement: float, *, baseline_predicted=None,
     extra_train_p: float | None = None, j_required: bool = True, evidence: float | None = None, alpha: float = 1e-3, z_min: float = -2.0, min_gap: float = -0.5,
-    val_weight: float = 1.0, gap_against_baseline: bool = False,
+    val_weight: float = 1.0, gap_against_baseline: bool = False, held_out_alpha: float | None = None,
 ) -> CandidateScore:
     r"""Score an augmented model (module docstring for the rules).
 
@@ -1474,7 +1475,11 @@ def score_candidate(
     R^2 leaves may stand in for the nominal's: a nonlinear candidate is the null
     time-domain refit with the nonlinearity added, and where that refit predicts the
     held-out records worse than the frequency-domain nominal, what the effect adds shows
-    against the refit only).  The ranking score is
+    against the refit only).  With ``held_out_alpha`` the evidence may come the other way
+    round: a held-out z-score of at least the one-sided normal quantile of ``alpha`` (3.09
+    at 1e-3) with ``extra_train_p`` below ``held_out_alpha`` and the gap closed as above
+    (a cross-coupling, whose held-out multisteps may carry more off-axis activity than the
+    identification records' pilot corrections).  The ranking score is
     :math:`-\Delta\mathrm{BIC}_J/m_{eff} + w_{val}\,\mathrm{gap} + 0.05\,\mathrm{agreement}`,
     minus 10 when the candidate does not beat noise; ``evidence`` replaces the first
     term where ``J`` cannot see the effect (the nonlinear candidates, whose describing
@@ -1502,6 +1507,8 @@ def score_candidate(
     if gap_against_baseline and not closes:
         closes = _gap_closed(r2, float(r_squared(jnp.asarray(y), jnp.asarray(pb)))) > min_gap
     ok = bool(p_train < alpha and (dbic < 0.0 or not j_required) and z > z_min and closes)
+    if not ok and held_out_alpha is not None:
+        ok = bool(extra < held_out_alpha and z >= NormalDist().inv_cdf(1.0 - alpha) and closes)
     fit_term = -dbic / m if evidence is None else evidence
     score = fit_term + val_weight * gap + 0.05 * agreement - (0.0 if ok else 10.0)
     return CandidateScore(effects, params, sigma, r2, tic, cost_J, nominal_J, gap, dbic, dbic_val, z, p_train, ok,
