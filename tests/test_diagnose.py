@@ -930,6 +930,11 @@ def test_time_delay_case_is_found_estimated_and_reported():
         assert f"gives R^2 {rf.val_r2:.3f}." in text
         assert ("model-form error, not the effect's" in text) == bool(flag)
         assert ("the held-out records do not confirm it" in text) == (not flag)
+    # a band up to the analysed top where the coherence is lost (made up here) is named
+    top_hz = float(np.max(d.response_w)) / (2.0 * np.pi)
+    for bands, named in (([[0.2, 0.3], [0.6 * top_hz, top_hz]], True), ([[0.2, 0.3]], False), ([], False)):
+        text = dataclasses.replace(d, noise_limited_bands_hz=bands).summary()
+        assert (f"Above {0.6 * top_hz:.3g} Hz (to the analysed {top_hz:.3g} Hz) the coherence is too low" in text) == named
     # a verdict the held-out records carried (score_candidate's held_out_alpha; made up here)
     for flag in (0.0, 1.0):
         held = dataclasses.replace(top, detail=top.detail | {"passed_on_held_out_records": flag})

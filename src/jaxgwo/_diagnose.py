@@ -405,6 +405,15 @@ class Diagnosis:
             lines.append(f"Gap lies mainly between {lo:.2g} and {hi:.2g} Hz ({trend}); worst at {self.mismatch.worst_hz:.2g} Hz.")
         else:
             lines.append("The nominal model stays within the response's random-error bounds at every frequency.")
+        top_hz = float(np.max(self.response_w)) / (2.0 * np.pi) if np.size(self.response_w) else math.nan
+        blind = [b for b in self.noise_limited_bands_hz if b[1] >= 0.99 * top_hz]
+        if blind:
+            # the R-50 resonances of the blind study lie there (coherence 0.05-0.44 at the mode)
+            lines.append(
+                f"Above {blind[0][0]:.3g} Hz (to the analysed {top_hz:.3g} Hz) the coherence is too low for the "
+                "response to be measured: a resonance there cannot show in the frequency-domain fits. A sweep with "
+                "more energy at those frequencies would measure it."
+            )
         if self.amplitude.dependent:
             lines.append(f"The response depends on amplitude ({self.amplitude.note}).")
         if self.gyro.tested:
