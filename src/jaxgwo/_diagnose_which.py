@@ -56,7 +56,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from statistics import NormalDist
 
 import equinox as eqx
 import jax
@@ -1508,7 +1507,9 @@ def score_candidate(
         closes = _gap_closed(r2, float(r_squared(jnp.asarray(y), jnp.asarray(pb)))) > min_gap
     ok = bool(p_train < alpha and (dbic < 0.0 or not j_required) and z > z_min and closes)
     if not ok and held_out_alpha is not None:
-        ok = bool(extra < held_out_alpha and z >= NormalDist().inv_cdf(1.0 - alpha) and closes)
+        import scipy.stats
+
+        ok = bool(extra < held_out_alpha and z >= scipy.stats.norm.isf(alpha) and closes)
     fit_term = -dbic / m if evidence is None else evidence
     score = fit_term + val_weight * gap + 0.05 * agreement - (0.0 if ok else 10.0)
     return CandidateScore(effects, params, sigma, r2, tic, cost_J, nominal_J, gap, dbic, dbic_val, z, p_train, ok,
