@@ -986,6 +986,17 @@ def test_no_effect_case_answers_none():
         text = dataclasses.replace(d, refit=dataclasses.replace(d.refit, val_r2=v)).summary()
         assert ("That refit is the better model" in text) == (v >= d.nominal_r2 + 1e-3)
         assert ("is what the paper model can do" in text) == (v < d.nominal_r2 + 1e-3)
+    # a candidate the identification records support and the held-out records refuse is named
+    assert d.unconfirmed == () and doc_all(d)["unconfirmed"] == [] and "Unconfirmed" not in d.summary()
+    (mode,) = [c for c in d.ranking if c.effects == ("structural_mode",)]
+    for r2, held in ((d.nominal_r2 - 0.01, "predict the held-out records worse"), (d.nominal_r2 + 1e-4, "do not confirm it beyond noise")):
+        refused = dataclasses.replace(mode, train_p=2e-5, val_r2=r2, z_score=-1.5, beats_noise=False)
+        u = dataclasses.replace(d, ranking=(refused, *[c for c in d.ranking if c is not mode]), unconfirmed=("structural_mode",))
+        text = u.summary()
+        f = mode.params["structural_mode"]["freq_hz"]
+        assert f"Unconfirmed: the identification records support structural_mode freq_hz = {f:.3g}" in text
+        assert f"(p 2e-05), but they {held}" in text and f"-> {r2:.3f}, z -1.5)" in text
+        assert f"energy near {f:.3g} Hz" in text and doc_all(u)["unconfirmed"] == ["structural_mode"]
 
 
 def test_an_extra_pole_pair_is_structure_not_an_effect():
@@ -1203,10 +1214,31 @@ def test_f_test_against_scipy():
     assert f_test_p(4.0, 5.0, 1, 30) == 1.0  # no reduction: no evidence
 
 
+def doc_all(d):
+    """The JSON report as another tool reads it."""
+    return json.loads(json.dumps(d.to_json()))
+
+
+def test_unconfirmed_candidates_are_named_beside_a_none_verdict_only():
+    """``_unconfirmed``: with a ``none`` verdict, the candidates below noise whose
+    identification p is below ``alpha``, in ranking order; nothing beside a verdict, and
+    a NaN or larger p is no support."""
+    from jaxgwo._diagnose import _unconfirmed
+
+    def cand(effect, p):
+        return dataclasses.replace(_scored(effect, -1.0, False), train_p=p)
+
+    ranking = (cand("cross_coupling", 0.01), cand("rate_limit", 1e-5), cand("backlash", float("nan")),
+               cand("structural_mode", 9e-4), cand("saturation", 1e-3))  # fmt: skip
+    assert _unconfirmed(ranking, "none", 1e-3) == ("rate_limit", "structural_mode")
+    assert _unconfirmed(ranking, "none", 0.05) == ("cross_coupling", "rate_limit", "structural_mode", "saturation")
+    assert _unconfirmed(ranking, "rate_limit", 1e-3) == ()
+
+
 def _check_json_report_schema(d):
     """The stable JSON report (issue 5's schema) of a diagnosis of all eight candidates."""
     doc = json.loads(json.dumps(d.to_json()))
-    assert {"channel", "nominal", "where", "ranking", "verdict", "combined_top2"} <= set(doc)
+    assert {"channel", "nominal", "where", "ranking", "verdict", "combined_top2", "unconfirmed"} <= set(doc)
     assert set(doc["nominal"]) == {"params", "cost_J", "val_r2", "val_tic", "simulates"}
     assert doc["time_domain_refit"]["val_r2"] == pytest.approx(d.refit.val_r2)  # the time-domain candidates' null
     assert doc["nominal"]["simulates"] is True and "does not simulate" not in d.summary()  # a 30 ms delay's nominal does
