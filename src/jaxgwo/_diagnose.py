@@ -638,6 +638,37 @@ def _on_box_edge(mode: Mapping[str, float]) -> bool:
     return bool(np.any(z <= lo + 1e-3) or np.any(z >= hi - 1e-3))
 
 
+def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float, float, float], z_pair: np.ndarray,
+                              key, **kw) -> tuple[LinearFit, tuple[tuple[float, float, float]]]:
+    """A resonance fitted on ``J`` beside an airframe pole pair ``pair`` (``freq_hz,
+    zeta_p, zeta_z``; ``z_pair`` its effect coordinates), in the box of
+    :data:`_Z_HI_SECOND_PAIR`, with the paper parameters (start ``x_paper``).  Returns the
+    resonance's fit (its ``J`` is the model's with both) and the pair it lies beside.
+
+    The pair was fitted without the resonance and bent toward it; held there, the two do
+    not fit together.  So the resonance is fitted beside the pair held, then the pair
+    refitted beside the resonance held (the structure step's box, from where it was), then
+    the resonance beside that pair, and the last two are kept where they fit ``J`` better.
+    On ``J`` the pair's refit adds no parameter to the F-test's count: the base fitted it
+    on ``J`` as well (the time-domain check, whose null holds the pair, holds it too).
+    Seed-137 case_003 (R-50, 8.31 Hz): ``J`` 6.42 -> 5.89, and the held-out R^2 against
+    the pair alone 0.9868 -> 0.9851 (z -2.2, refused) before, 0.9870 (z 1.4) after; the
+    resonance 8.31 Hz, pole damping 0.041, zeros 0.080 for the true 0.046 and 0.110.
+    ``kw``: :func:`fit_linear_candidates`'s ``wolves``, ``iterations``, ``dependence_factor``."""
+    own = [("structural_mode",)]
+    fixed = (tuple(pair),)
+    (f,) = fit_linear_candidates(with_fixed_modes(objective, fixed), x_paper, own, key, z_hi=_Z_HI_SECOND_PAIR, **kw)
+    r = f.params["structural_mode"]
+    (g,) = fit_linear_candidates(with_fixed_modes(objective, [(r["freq_hz"], r["zeta_p"], r["zeta_z"])]), f.x[:5], own,
+                                 jax.random.fold_in(key, 1), effect_seed=z_pair, z_hi=_Z_HI_STRUCTURE,
+                                 z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
+    a = g.params["structural_mode"]
+    refitted = ((a["freq_hz"], a["zeta_p"], a["zeta_z"]),)
+    (h,) = fit_linear_candidates(with_fixed_modes(objective, refitted), g.x[:5], own, jax.random.fold_in(key, 2),
+                                 effect_seed=f.x[5:], z_hi=_Z_HI_SECOND_PAIR, **kw)  # fmt: skip
+    return (h, refitted) if h.cost_J < f.cost_J else (f, fixed)
+
+
 def _mode_agreement(fm: FrequencyMismatch, params: dict | None) -> float:
     """1 when step 2 detected a narrow resonance and the fitted ``structural_mode`` is it:
     lightly damped (pole damping at most :data:`_MODE_AGREEMENT_ZETA_P`) and within a
@@ -1209,24 +1240,30 @@ def diagnose(
             """A resonance beside a structure finding's pole pair: that pair held where the
             structure step fitted it (:attr:`ModelSpec.fixed_modes`; on ``J`` through
             :func:`with_fixed_modes`), the resonance fitted in the vocabulary's box with the
-            paper parameters, scored against the base and checked in the time domain as
-            the other linear candidates are.  The structure step fills the one
+            paper parameters, then the pair refitted beside it and the resonance beside
+            that (below), scored against the base and checked in the time domain as the
+            other linear candidates are.  The structure step fills the one
             ``structural_mode`` of the effect coordinates, and without this no resonance on
             an R-50 could be the verdict (0/9 over the stored blind seeds).  A fit that
             stops on an edge of its box (:func:`_on_box_edge`) is scored but cannot beat
             noise, and its output-error refit cannot stand in for it."""
-            obj, x0, _seed, sv = base.start
+            obj, x0, z_pair, sv = base.start
             m = base.spec.effects["structural_mode"]
-            fixed = ((m["freq_hz"], m["zeta_p"], m["zeta_z"]),)
+            pair = (m["freq_hz"], m["zeta_p"], m["zeta_z"])
             own = ("structural_mode",)
-            (f,) = fit_linear_candidates(with_fixed_modes(obj, fixed), x0, [own], k_pair, wolves=settings.wolves,
-                                         iterations=settings.iterations, dependence_factor=dep,
-                                         z_hi=_Z_HI_SECOND_PAIR)  # fmt: skip
+            f, fixed = fit_resonance_beside_pair(obj, x0, pair, z_pair, k_pair, wolves=settings.wolves,
+                                                 iterations=settings.iterations, dependence_factor=dep)  # fmt: skip
             spec = ModelSpec(np.exp(f.x[:5]) * sv, f.params, fixed_modes=fixed)
             specs[own] = spec
             edge = _on_box_edge(f.params["structural_mode"])
             sc = score(base, own, f.params, f.sigma, spec, f.cost_J, base.cost_J, 3, extra_p=1.0 if edge else None)
-            fit_base = ModelSpec(td_base.params, {}, td_base.gain_scale, fixed)
+            # The time-domain check holds the pair where the null refit holds it, the
+            # structure step's: refitted beside the resonance it has moved on the
+            # identification records, three parameters the output error's F-test would not
+            # count (R-50 none cases of seed 137, 036 and 066: resonances at 4.7 and 4.1 Hz,
+            # pole damping 0.19 and 0.18, passed at output-error p 6e-8 and 4e-14 beside the
+            # refitted pair; beside the held one they stop on the box's edge, as before).
+            fit_base = ModelSpec(td_base.params, {}, td_base.gain_scale, (pair,))
             own, sc, sc_td, td_spec, det = time_domain_check(base, own, sc, f.x[5:], f.x, fit_base, own, (), True,
                                                              _Z_HI_SECOND_PAIR)  # fmt: skip
             det |= {"second_pole_pair": 1.0, "on_box_edge": float(edge)}
