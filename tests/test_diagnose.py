@@ -1055,6 +1055,8 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     # a resonance is still a candidate, fitted beside the held pair, lightly damped; none here
     (second,) = [c for c in d.ranking if c.effects == ("structural_mode",)]
     assert second.detail["second_pole_pair"] == 1.0 and second.params["structural_mode"]["zeta_p"] <= 0.2 + 1e-9
+    # the report gives the airframe pair that candidate's model holds: still the 9 Hz pair
+    assert abs(second.detail["pair_freq_hz"] - 9.0) < 0.15 * 9.0 and second.detail["pair_zeta_z"] > 1.0
     doc = json.loads(json.dumps(d.to_json()))
     assert doc["structure"]["effect"] == "structural_mode" and doc["ranking_paper_model"][0]["effect"] == "structural_mode"
     assert "lacks a pole pair near" in d.summary() and "its zeros are real" in d.summary()

@@ -1266,7 +1266,9 @@ def diagnose(
             fit_base = ModelSpec(td_base.params, {}, td_base.gain_scale, (pair,))
             own, sc, sc_td, td_spec, det = time_domain_check(base, own, sc, f.x[5:], f.x, fit_base, own, (), True,
                                                              _Z_HI_SECOND_PAIR)  # fmt: skip
+            # the pair the resonance lies beside (refitted or held), which the model needs too
             det |= {"second_pole_pair": 1.0, "on_box_edge": float(edge)}
+            det |= dict(zip(("pair_freq_hz", "pair_zeta_p", "pair_zeta_z"), map(float, fixed[0])))
             if sc_td is not None and _on_box_edge(sc_td.params["structural_mode"]):
                 sc_td, td_spec, det["td_on_box_edge"] = None, None, 1.0
             return own, sc, sc_td, td_spec, det
