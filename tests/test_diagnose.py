@@ -1001,7 +1001,7 @@ def test_no_effect_case_answers_none():
     d = diagnose(train, val, "lateral", SETTINGS)
     assert d.verdict == "none" and not any(c.beats_noise for c in d.ranking)
     assert "No candidate effect beats noise" in d.summary()
-    doc = json.loads(json.dumps(d.to_json()))["time_domain_refit"]
+    doc = _report_json(d)["time_domain_refit"]
     assert set(doc) == {"params", "effects", "train_mse", "val_r2", "val_tic", "gap_closed"} and doc["effects"] == {}
     y = np.concatenate([yv for *_r, yv in _time_pairs(val, "lateral", SETTINGS.identify)])
     p = np.concatenate([_paper_lsim(doc["params"], tv, uv) for tv, uv, _o, _y in _time_pairs(val, "lateral", SETTINGS.identify)])
@@ -1025,7 +1025,7 @@ def test_no_effect_case_answers_none():
         assert ("That refit is the better model" in text) == (v >= d.nominal_r2 + 1e-3)
         assert ("is what the paper model can do" in text) == (v < d.nominal_r2 + 1e-3)
     # a candidate the identification records support and the held-out records refuse is named
-    assert d.unconfirmed == () and doc_all(d)["unconfirmed"] == [] and "Unconfirmed" not in d.summary()
+    assert d.unconfirmed == () and _report_json(d)["unconfirmed"] == [] and "Unconfirmed" not in d.summary()
     (mode,) = [c for c in d.ranking if c.effects == ("structural_mode",)]
     for r2, held in ((d.nominal_r2 - 0.01, "predict the held-out records worse"), (d.nominal_r2 + 1e-4, "do not confirm it beyond noise")):
         refused = dataclasses.replace(mode, train_p=2e-5, val_r2=r2, z_score=-1.5, beats_noise=False)
@@ -1034,7 +1034,7 @@ def test_no_effect_case_answers_none():
         f = mode.params["structural_mode"]["freq_hz"]
         assert f"Unconfirmed: the identification records support structural_mode freq_hz = {f:.3g}" in text
         assert f"(p 2e-05), but they {held}" in text and f"-> {r2:.3f}, z -1.5)" in text
-        assert f"energy near {f:.3g} Hz" in text and doc_all(u)["unconfirmed"] == ["structural_mode"]
+        assert f"energy near {f:.3g} Hz" in text and _report_json(u)["unconfirmed"] == ["structural_mode"]
 
 
 def test_an_extra_pole_pair_is_structure_not_an_effect():
@@ -1057,7 +1057,7 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     assert second.detail["second_pole_pair"] == 1.0 and second.params["structural_mode"]["zeta_p"] <= 0.2 + 1e-9
     # the report gives the airframe pair that candidate's model holds: still the 9 Hz pair
     assert abs(second.detail["pair_freq_hz"] - 9.0) < 0.15 * 9.0 and second.detail["pair_zeta_z"] > 1.0
-    doc = json.loads(json.dumps(d.to_json()))
+    doc = _report_json(d)
     assert doc["structure"]["effect"] == "structural_mode" and doc["ranking_paper_model"][0]["effect"] == "structural_mode"
     assert "lacks a pole pair near" in d.summary() and "its zeros are real" in d.summary()
     from jaxgwo._report import diagnosis_report_html
@@ -1095,7 +1095,7 @@ def test_structure_hidden_behind_a_long_delay_is_found():
     # the mode closes most of the held-out gap the delay alone leaves (0.940 -> 0.992 here)
     alone = d.paper_ranking[0].val_r2
     assert (top.val_r2 - alone) / (1.0 - alone) > 0.5 and top.val_r2 > 0.98
-    doc = json.loads(json.dumps(d.to_json()))
+    doc = _report_json(d)
     assert doc["structure"]["detail"]["found_behind_time_delay"] == 1.0
     assert "shows only on top of a time delay" in d.summary()
     assert "counts random error only" in d.summary()  # the bound ignores the extra mode's model-form error
@@ -1127,7 +1127,7 @@ def test_a_nominal_that_does_not_simulate_still_gets_finite_time_domain_tests():
     assert not [w for w in caught if "NAN" in str(w.message).upper()], [str(w.message) for w in caught]
     # the report says why the nominal's held-out R^2 reads about 0
     assert not d.nominal_simulates and abs(d.nominal_r2) < 0.01
-    assert json.loads(json.dumps(d.to_json()))["nominal"]["simulates"] is False
+    assert _report_json(d)["nominal"]["simulates"] is False
     assert "does not simulate" in d.summary()
 
 
@@ -1254,7 +1254,7 @@ def test_f_test_against_scipy():
     assert f_test_p(4.0, 5.0, 1, 30) == 1.0  # no reduction: no evidence
 
 
-def doc_all(d):
+def _report_json(d):
     """The JSON report as another tool reads it."""
     return json.loads(json.dumps(d.to_json()))
 
@@ -1277,7 +1277,7 @@ def test_unconfirmed_candidates_are_named_beside_a_none_verdict_only():
 
 def _check_json_report_schema(d):
     """The stable JSON report (issue 5's schema) of a diagnosis of all eight candidates."""
-    doc = json.loads(json.dumps(d.to_json()))
+    doc = _report_json(d)
     assert {"channel", "nominal", "where", "ranking", "verdict", "combined_top2", "unconfirmed"} <= set(doc)
     assert set(doc["nominal"]) == {"params", "cost_J", "val_r2", "val_tic", "simulates"}
     assert doc["time_domain_refit"]["val_r2"] == pytest.approx(d.refit.val_r2)  # the time-domain candidates' null

@@ -633,9 +633,14 @@ def _on_box_edge(mode: Mapping[str, float]) -> bool:
     ``structural_mode`` at output-error p 6e-16), or at zero damping 1.5 on the three
     long delays; the fits near a true resonance lay inside (13.5 Hz for 13.0, 11.3 for
     13.1)."""
-    z = np.log([mode["freq_hz"], mode["zeta_p"], mode["zeta_z"]])
+    z = np.log(_mode_tuple(mode))
     lo, hi = _Z_LO[3:6], _Z_HI_SECOND_PAIR[3:6]
     return bool(np.any(z <= lo + 1e-3) or np.any(z >= hi - 1e-3))
+
+
+def _mode_tuple(mode: Mapping[str, float]) -> tuple[float, float, float]:
+    """A ``structural_mode``'s ``(freq_hz, zeta_p, zeta_z)``, as :attr:`ModelSpec.fixed_modes` holds it."""
+    return (mode["freq_hz"], mode["zeta_p"], mode["zeta_z"])
 
 
 def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float, float, float], z_pair: np.ndarray,
@@ -658,12 +663,10 @@ def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float,
     own = [("structural_mode",)]
     fixed = (tuple(pair),)
     (f,) = fit_linear_candidates(with_fixed_modes(objective, fixed), x_paper, own, key, z_hi=_Z_HI_SECOND_PAIR, **kw)
-    r = f.params["structural_mode"]
-    (g,) = fit_linear_candidates(with_fixed_modes(objective, [(r["freq_hz"], r["zeta_p"], r["zeta_z"])]), f.x[:5], own,
+    (g,) = fit_linear_candidates(with_fixed_modes(objective, [_mode_tuple(f.params["structural_mode"])]), f.x[:5], own,
                                  jax.random.fold_in(key, 1), effect_seed=z_pair, z_hi=_Z_HI_STRUCTURE,
                                  z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
-    a = g.params["structural_mode"]
-    refitted = ((a["freq_hz"], a["zeta_p"], a["zeta_z"]),)
+    refitted = (_mode_tuple(g.params["structural_mode"]),)
     (h,) = fit_linear_candidates(with_fixed_modes(objective, refitted), g.x[:5], own, jax.random.fold_in(key, 2),
                                  effect_seed=f.x[5:], z_hi=_Z_HI_SECOND_PAIR, **kw)  # fmt: skip
     return (h, refitted) if h.cost_J < f.cost_J else (f, fixed)
@@ -1248,8 +1251,7 @@ def diagnose(
             stops on an edge of its box (:func:`_on_box_edge`) is scored but cannot beat
             noise, and its output-error refit cannot stand in for it."""
             obj, x0, z_pair, sv = base.start
-            m = base.spec.effects["structural_mode"]
-            pair = (m["freq_hz"], m["zeta_p"], m["zeta_z"])
+            pair = _mode_tuple(base.spec.effects["structural_mode"])
             own = ("structural_mode",)
             f, fixed = fit_resonance_beside_pair(obj, x0, pair, z_pair, k_pair, wolves=settings.wolves,
                                                  iterations=settings.iterations, dependence_factor=dep)  # fmt: skip
