@@ -1071,6 +1071,24 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     assert _structure_route(d.paper_ranking, {("structural_mode",): None}, float("inf")) is None
 
 
+def test_a_pair_pressed_against_the_vocabulary_floor_is_structure():
+    """A plant with a broad pole pair the paper model lacks at 2.5 Hz (damping 0.3, complex
+    zeros at 0.6: below the vocabulary's resonances, as an R-50's coupled flapping is) and
+    no effect.  The vocabulary's box stops the mode on its 3 Hz floor with complex zeros
+    (3.0 Hz, zeros 0.95 here), which is no airframe pair by its zeros; before
+    ``_on_vocabulary_floor`` that was the verdict, a ``structural_mode``.  The structure
+    step refits it in its wider box: 2.34 Hz, damping 0.33, zeros 0.66, and the verdict
+    is none (seed-149 case_044, an R-50 gyro filter, went the same way)."""
+    train, val = _case("structural_mode", seed=4, freq_hz=2.5, zeta_p=0.3, zeta_z=0.6)
+    d = diagnose(train, val, "lateral", SETTINGS)
+    first = d.paper_ranking[0].params["structural_mode"]
+    assert d.structure is not None and d.structure.detail.get("found_behind_time_delay") is None
+    sm = d.structure.params["structural_mode"]
+    assert abs(sm["freq_hz"] - 2.5) < 0.15 * 2.5 and sm["freq_hz"] < 3.0 and abs(sm["zeta_p"] - 0.3) < 0.1
+    assert first == sm  # the wider refit replaced the floor fit in the paper-model ranking
+    assert d.verdict == "none" and d.structure.val_r2 > d.nominal_r2
+
+
 def test_structure_hidden_behind_a_long_delay_is_found():
     """The extra-pole-pair plant of the test above (9 Hz, damping 0.15, real zeros) with a
     60 ms delay: the delay takes the top place from the mode in the paper-model ranking
@@ -1433,15 +1451,19 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
 def test_structure_step_starts_only_from_a_frequency_domain_winner():
     from jaxgwo._diagnose import _structure_route
 
-    def top(effect, ok=True, td_path=0.0, zeta_z=2.0):
+    def top(effect, ok=True, td_path=0.0, zeta_z=2.0, freq_hz=9.0):
         c = _scored(effect, 3.0, ok)
-        params = {effect: {"freq_hz": 9.0, "zeta_z": zeta_z}} if effect == "structural_mode" else c.params
+        params = {effect: {"freq_hz": freq_hz, "zeta_z": zeta_z}} if effect == "structural_mode" else c.params
         return dataclasses.replace(c, params=params, detail={"time_domain_path": td_path})
 
     fits = {("structural_mode",): object(), ("time_delay",): object(), ("sensor_lag",): object()}
     rest = [_scored("sensor_lag", 1.0)]
     assert _structure_route([top("structural_mode"), *rest], fits, 1.0) == "mode"
     assert _structure_route([top("structural_mode", zeta_z=0.8), *rest], fits, 1.0) is None  # a resonance, not structure
+    # pressed against the vocabulary's 3 Hz floor: the structure step refits it in its wider box
+    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, 1.0) == "mode"
+    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.1), *rest], fits, 1.0) is None
+    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, math.inf) is None  # off
     assert _structure_route([top("time_delay"), *rest], fits, 1.0) == "behind_delay"
     # a winner by the time-domain path won with its output-error refit, not the J fit the step extends
     assert _structure_route([top("structural_mode", td_path=1.0), *rest], fits, 1.0) is None

@@ -964,13 +964,26 @@ def _airframe_pair(mode: Mapping[str, float], structure_zeta_z: float) -> bool:
     return mode["zeta_z"] > structure_zeta_z or math.log(mode["freq_hz"]) < _Z_LO[3]
 
 
+def _on_vocabulary_floor(mode: Mapping[str, float], structure_zeta_z: float) -> bool:
+    """Whether a ``structural_mode`` fitted in the vocabulary's box (its ``params``) stopped on
+    that box's 3 Hz floor (:data:`_Z_LO`), below which no effect lies but a flybar's coupled
+    flapping does: the pair there is pressed against the floor, not fitted (seed-149
+    case_044, an R-50 with a 9.6 Hz gyro filter: 3.0 Hz, pole damping 0.42, zeros 0.91,
+    ranked first and beating noise; no structure step, so the filter went on top of the
+    paper model alone and predicted the held-out records worse than the nominal).  Never
+    with the structure step switched off (``structure_zeta_z = inf``)."""
+    return not math.isinf(structure_zeta_z) and math.log(mode["freq_hz"]) <= _Z_LO[3] + 1e-3
+
+
 def _structure_route(ranking: Sequence[CandidateScore], fits: dict, structure_zeta_z: float) -> str | None:
     """Where the structure step starts, from the paper model's ranking.
 
     ``"mode"``: the top candidate is a ``structural_mode`` with real zeros (zero damping
-    above ``structure_zeta_z``): an extra pole pair of the airframe.  ``"behind_delay"``:
-    the top candidate is a ``time_delay``, behind which such a mode may hide.  ``None``:
-    no structure step.  Either needs the top candidate to have beaten noise by its
+    above ``structure_zeta_z``): an extra pole pair of the airframe; or one stopped on the
+    3 Hz floor of the vocabulary's box (:func:`_on_vocabulary_floor`), which the structure
+    step refits in its wider box and keeps only where that refit is an airframe pair.
+    ``"behind_delay"``: the top candidate is a ``time_delay``, behind which such a mode
+    may hide.  ``None``: no structure step.  Either needs the top candidate to have beaten noise by its
     frequency-domain fit (``J``, in ``fits``), which the step extends: a candidate that won
     by the time-domain path did so with a different model (its output-error refit), whose
     spec and held-out predictions do not belong to that ``J`` fit.
@@ -980,7 +993,8 @@ def _structure_route(ranking: Sequence[CandidateScore], fits: dict, structure_ze
     top = ranking[0]
     if top.effects not in fits:
         return None
-    if top.effects == ("structural_mode",) and _airframe_pair(top.params["structural_mode"], structure_zeta_z):
+    if top.effects == ("structural_mode",) and (_airframe_pair(top.params["structural_mode"], structure_zeta_z)
+                                                or _on_vocabulary_floor(top.params["structural_mode"], structure_zeta_z)):
         return "mode"
     if top.effects == ("time_delay",):
         return "behind_delay"
@@ -1419,6 +1433,9 @@ def diagnose(
             if w_sc.beats_noise and _airframe_pair(f_w.params["structural_mode"], settings.structure_zeta_z):
                 f_sm, sm_spec, structure = f_w, w_spec, w_sc
                 paper_ranking = tuple(sorted((w_sc, *ranking[1:]), key=_best_first))
+        if not _airframe_pair(structure.params["structural_mode"], settings.structure_zeta_z):
+            # a mode on the vocabulary's floor whose wider refit is no airframe pair either
+            structure, paper_ranking = None, ()
         obj_s, sv_s, prior = prep.objective, sign_vec, None
     elif route == "behind_delay":
         # A long delay takes the top place from the extra pole pair an airframe such as the
