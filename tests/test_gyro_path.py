@@ -293,3 +293,19 @@ def test_the_plot_overlays_the_model_the_diagnosis_proposes():
     # no structure: the verdict's candidate, or nothing beside the nominal
     assert _proposed_model(SimpleNamespace(verdict="time_delay", ranking=passing, structure=None)) == (passing[0], "+time_delay")
     assert _proposed_model(SimpleNamespace(verdict="none", ranking=failing, structure=None)) == (None, "")
+
+
+def test_a_gyro_filter_above_the_nyquist_frequency_is_no_finding():
+    """An exact first-order filter above the records' Nyquist frequency is fitted (the path
+    reads a lag of a couple of milliseconds) but is no finding: the logs do not tell such a
+    lag from a sub-sample misalignment of rate and attitude, so it neither holds nor
+    promotes a ``sensor_lag`` (seed-151 case_071, no effect: 83 Hz at p 1.2e-5 was the
+    verdict).  One below it still is."""
+    g = _path(80.0)
+    assert g.nyquist_hz == FS / 2.0 and g.cutoff_hz > FS / 2.0 and g.p_value < 1e-3
+    assert not g.shows_filter(1e-3) and not _gyro_filter_held(g, 1e-3)
+    assert f"above the records' Nyquist frequency ({FS / 2.0:.3g} Hz)" in g.note
+    assert _path(30.0).shows_filter(1e-3) and _gyro_filter_held(_path(30.0), 1e-3)
+    lag = _scored("sensor_lag", 1.9, True, {"sensor_lag": {"cutoff_hz": 80.0}})
+    ranking = (_scored("rotor_flapping", 2.0), lag)
+    assert _gyro_path_order(ranking, g, 1e-3) == ranking  # not ranked first on the path's evidence

@@ -745,8 +745,9 @@ def _gyro_path(records: Sequence[FlightRecord], channel: str, pairs, sample_rate
 
 def _gyro_filter_held(gyro: GyroPath, alpha: float) -> bool:
     """Whether the gyro path shows a filter that the ``sensor_lag`` candidate is fitted with:
-    one at level ``alpha`` below the candidate box's top (100 Hz; one above it acts beyond
-    the analysed band and is not held).  The one condition for holding the cutoff and for
+    one at level ``alpha`` below the records' Nyquist frequency (:meth:`GyroPath.shows_filter`)
+    and the candidate box's top (100 Hz; one above it acts beyond the analysed band and is
+    not held).  The one condition for holding the cutoff and for
     ranking the candidate first on the path's evidence (:func:`_gyro_path_order`)."""
     return gyro.shows_filter(alpha) and math.log(gyro.cutoff_hz) < _Z_HI[1]
 
