@@ -1035,6 +1035,14 @@ def test_no_effect_case_answers_none():
         assert f"Unconfirmed: the identification records support structural_mode freq_hz = {f:.3g}" in text
         assert f"(p 2e-05), but they {held}" in text and f"-> {r2:.3f}, z -1.5)" in text
         assert f"energy near {f:.3g} Hz" in text and _report_json(u)["unconfirmed"] == ["structural_mode"]
+    # a time-domain candidate is quoted against the null refit it was tested against
+    (rl,) = [c for c in d.ranking if c.effects == ("rate_limit",)]
+    worse = d.refit.val_r2 - 0.01
+    refused = dataclasses.replace(rl, train_p=2e-5, val_r2=worse, z_score=-2.5, beats_noise=False)
+    text = dataclasses.replace(d, ranking=(refused, *[c for c in d.ranking if c is not rl]),
+                               unconfirmed=("rate_limit",)).summary()  # fmt: skip
+    assert (f"(p 2e-05), but they predict the held-out records worse with it (R^2 {d.refit.val_r2:.3f} -> "
+            f"{worse:.3f} against the paper model refitted by output error, z -2.5)") in text
 
 
 def test_an_extra_pole_pair_is_structure_not_an_effect():
@@ -1060,6 +1068,14 @@ def test_an_extra_pole_pair_is_structure_not_an_effect():
     doc = _report_json(d)
     assert doc["structure"]["effect"] == "structural_mode" and doc["ranking_paper_model"][0]["effect"] == "structural_mode"
     assert "lacks a pole pair near" in d.summary() and "its zeros are real" in d.summary()
+    assert "refits to" not in d.summary()  # no verdict: no resonance beside the pair to name
+    # a resonance verdict beside the pair names the pair its model holds where it moved
+    sm = d.structure.params["structural_mode"]
+    for moved, said in ((1.05, True), (1.005, False)):
+        detail = second.detail | {"pair_freq_hz": moved * sm["freq_hz"], "pair_zeta_p": sm["zeta_p"]}
+        won = dataclasses.replace(second, beats_noise=True, detail=detail)
+        text = dataclasses.replace(d, ranking=(won,), verdict="structural_mode").summary()
+        assert (f"Beside it the airframe's pole pair refits to {moved * sm['freq_hz']:.3g} Hz" in text) == said
     from jaxgwo._report import diagnosis_report_html
 
     assert "Ranked on top of the structure finding" in diagnosis_report_html(d, figures=False)
@@ -1116,6 +1132,7 @@ def test_structure_hidden_behind_a_long_delay_is_found():
     doc = _report_json(d)
     assert doc["structure"]["detail"]["found_behind_time_delay"] == 1.0
     assert "shows only on top of a time delay" in d.summary()
+    assert f"With the extra pole pair + time_delay: R^2 {d.combined.val_r2:.3f}" in d.summary()  # not "structural_mode + "
     assert "counts random error only" in d.summary()  # the bound ignores the extra mode's model-form error
 
 
