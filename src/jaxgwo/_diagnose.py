@@ -776,10 +776,11 @@ def _gyro_path(records: Sequence[FlightRecord], channel: str, pairs, sample_rate
 
 def _gyro_filter_held(gyro: GyroPath, alpha: float) -> bool:
     """Whether the gyro path shows a filter that the ``sensor_lag`` candidate is fitted with:
-    one at level ``alpha`` below the records' Nyquist frequency (:meth:`GyroPath.shows_filter`)
-    and the candidate box's top (100 Hz; one above it acts beyond the analysed band and is
-    not held).  The one condition for holding the cutoff and for
-    ranking the candidate first on the path's evidence (:func:`_gyro_path_order`)."""
+    one at level ``alpha`` below the records' Nyquist frequency
+    (:meth:`GyroPath.shows_filter`) and below the candidate box's top (100 Hz; one above it
+    acts beyond the analysed band and is not held).  The one condition for holding the
+    cutoff and for ranking the candidate first on the path's evidence
+    (:func:`_gyro_path_order`)."""
     return gyro.shows_filter(alpha) and math.log(gyro.cutoff_hz) < _Z_HI[1]
 
 
@@ -1015,10 +1016,11 @@ def _structure_route(ranking: Sequence[CandidateScore], fits: dict, structure_ze
     3 Hz floor of the vocabulary's box (:func:`_on_vocabulary_floor`), which the structure
     step refits in its wider box and keeps only where that refit is an airframe pair.
     ``"behind_delay"``: the top candidate is a ``time_delay``, behind which such a mode
-    may hide.  ``None``: no structure step.  Either needs the top candidate to have beaten noise by its
-    frequency-domain fit (``J``, in ``fits``), which the step extends: a candidate that won
-    by the time-domain path did so with a different model (its output-error refit), whose
-    spec and held-out predictions do not belong to that ``J`` fit.
+    may hide.  ``None``: no structure step.  Either route needs the top candidate to have
+    beaten noise by its frequency-domain fit (``J``, in ``fits``), which the step extends:
+    a candidate that won by the time-domain path did so with a different model (its
+    output-error refit), whose spec and held-out predictions do not belong to that ``J``
+    fit.
     """
     if not ranking or not ranking[0].beats_noise or ranking[0].detail.get("time_domain_path"):
         return None
