@@ -1702,3 +1702,15 @@ def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
     assert scored(weak, 1e-4).beats_noise  # the usual way round still passes
     worse = y + 0.11 * (0.8 * err + 0.6 * other)
     assert not scored(worse, 0.02).beats_noise and not scored(worse, 1e-4).beats_noise
+    # consistent but immaterial: the nominal's own error 1.3 % smaller everywhere reaches any
+    # z, but on 240 effective samples (0.1 s correlation time) its held-out BIC drops by
+    # 240 ln(0.987^2) + ln 240 = 0.8 only, short of HELD_OUT_FIRST_BIC (seed-157 case_007)
+    from jaxgwo._diagnose_which import HELD_OUT_FIRST_BIC
+
+    slight = y + 0.987 * (nominal - y)
+    sc = score_candidate(("cross_coupling",), {}, {}, [slight], [y], [nominal], r2(nominal), 1.0, 1.0, 500.0, 1, 0.1,
+                         dt, 0.0, extra_train_p=0.004, j_required=False, z_min=1.0, min_gap=0.0,
+                         held_out_alpha=0.05)  # fmt: skip
+    assert sc.z_score > 10.0 and sc.gap_closed > 0.0
+    assert sc.delta_bic_val == pytest.approx(240.0 * np.log(0.987**2) + np.log(240.0), rel=1e-6)
+    assert -HELD_OUT_FIRST_BIC < sc.delta_bic_val < 0.0 and not sc.beats_noise

@@ -178,7 +178,9 @@ class DiagnoseSettings:
     ``alpha_held_out_first``: a ``cross_coupling`` passes as well where the held-out records
     carry the evidence and the identification records only support it: held-out z-score
     at least the one-sided normal quantile of ``alpha`` (3.09), its gain's test below this
-    level, and a positive gap (``score_candidate``'s ``held_out_alpha``).  The pilot's
+    level, a positive gap and a held-out BIC drop of at least
+    :data:`jaxgwo._diagnose_which.HELD_OUT_FIRST_BIC` (``score_candidate``'s
+    ``held_out_alpha``).  The pilot's
     off-axis corrections during the sweeps are small, so a real coupling's gain can be
     uncertain there while the held-out multisteps show it plainly (seed-113 case_057: gain
     0.095 for 0.144, p 0.02, held-out z 3.67).  Set on the stored rankings of seeds 113 (with
