@@ -305,7 +305,8 @@ def test_a_gyro_filter_above_the_nyquist_frequency_is_no_finding():
     assert g.nyquist_hz == FS / 2.0 and g.cutoff_hz > FS / 2.0 and g.p_value < 1e-3
     assert not g.shows_filter(1e-3) and not _gyro_filter_held(g, 1e-3)
     assert f"above the records' Nyquist frequency ({FS / 2.0:.3g} Hz)" in g.note
-    assert _path(30.0).shows_filter(1e-3) and _gyro_filter_held(_path(30.0), 1e-3)
+    below = _path(30.0)
+    assert below.shows_filter(1e-3) and _gyro_filter_held(below, 1e-3)
     lag = _scored("sensor_lag", 1.9, True, {"sensor_lag": {"cutoff_hz": 80.0}})
     ranking = (_scored("rotor_flapping", 2.0), lag)
     assert _gyro_path_order(ranking, g, 1e-3) == ranking  # not ranked first on the path's evidence
