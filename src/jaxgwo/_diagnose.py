@@ -677,13 +677,14 @@ def _resonance_in_box(mode: Mapping[str, float]) -> bool:
     0.0068 against 7e-9; seed-131 case_051, 11.4 for 11.5: p 0.013 against 6e-6), both
     confirmed on the held-out records; on the 25 ``none`` cases whose mode was refitted on
     the paper model alone, the matched filter's :math:`z^2` averaged 3.0 (:math:`\\chi^2_3`:
-    3), its largest :math:`z` 2.98 (the threshold at ``alpha`` 1e-3: 4.03).  A notch or a vanishing pair, and a fit on
-    the box's edge (45 Hz, pole damping 0.01), are no resonance of the vocabulary and keep
-    the F-test, as do broadband candidates (delay, lags): on a seed-157 R-50 ``none`` case
-    (049) a delay, a flapping lag and a gyro filter each passed the matched filter (z 3.9,
-    p 8e-5 for their one parameter) and were confirmed on the held-out records (z 1.08)."""
-    _lo_p, hi_p = EFFECTS["structural_mode"].ranges[1]
-    lo_z, _hi_z = EFFECTS["structural_mode"].ranges[2]
+    3), its largest :math:`z` 2.98 (the threshold at ``alpha`` 1e-3: 4.03).  A notch or a
+    vanishing pair, and a fit on the box's edge (45 Hz, pole damping 0.01), are no
+    resonance of the vocabulary and keep the F-test, as do broadband candidates (delay,
+    lags): on a seed-157 R-50 ``none`` case (049) a delay, a flapping lag and a gyro filter
+    each passed the matched filter (z 3.9, p 8e-5 for their one parameter) and were
+    confirmed on the held-out records (z 1.08)."""
+    hi_p = EFFECTS["structural_mode"].ranges[1][1]
+    lo_z = EFFECTS["structural_mode"].ranges[2][0]
     z = np.log(_mode_tuple(mode))
     lo, hi = _Z_LO[3:6], _Z_HI[3:6]
     peak = mode["zeta_z"] >= (lo_z / hi_p) * mode["zeta_p"] and mode["zeta_p"] <= _MODE_AGREEMENT_ZETA_P
@@ -1315,7 +1316,7 @@ def diagnose(
             det_mf = {}
             if mode_starts and not fit_base.fixed_modes and _resonance_in_box(tdf.params["structural_mode"]):
                 # a resonance on the paper model alone: its evidence is the matched filter's
-                # (_resonance_in_box)
+                # (_resonance_in_box); td_p_output_error below is then its p, td_p_f_test the F-test's
                 td_res = [y - simulate_model(td_spec, t, u) for t, u, _o, y in tt]
                 z_mf = matched_filter_z(tr_res, td_res, 1.0 / dt)
                 det_mf = {"td_mf_z": z_mf, "td_p_f_test": p_td}
