@@ -1,6 +1,7 @@
-"""The matched-filter evidence of a time-domain refit (``matched_filter_z``): against a plain
-NumPy sum, calibrated under coloured noise (z^2 ~ chi^2_k), and as powerful as the
-analytic matched filter where the disturbance is low-frequency and the effect is not."""
+"""The matched-filter evidence of a time-domain refit (``matched_filter_z``): its variance
+against the analytic AR(1) autocovariance, calibrated under coloured noise (z^2 ~ chi^2_k),
+as powerful as the analytic matched filter where the disturbance is low-frequency and the
+effect is not, and the resonances it applies to (``_resonance_in_box``)."""
 
 import numpy as np
 import pytest
