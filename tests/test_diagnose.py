@@ -305,6 +305,42 @@ def test_structure_box_reaches_down_to_a_flybars_coupled_flapping():
     assert not _airframe_pair(w, math.inf) and not _airframe_pair({"freq_hz": 8.0, "zeta_p": 0.5, "zeta_z": 3.0}, math.inf)
 
 
+def test_a_lag_that_pressed_the_structure_pair_up_is_refitted_beside_the_flybar():
+    """Noise-free: the paper model with a 20 ms flapping lag and the rotor term's ``tau`` of
+    the R-50 (0.049 s), times a flybar pair (1.8 Hz, poles 0.12, zeros 0.93).  The structure
+    step's pair alone is pressed above the vocabulary's floor with real zeros, and the
+    rotor term's ``tau`` with it (to about 0.4): refitted with the lag around those paper
+    parameters, ``tau`` stops on the polish box's edge (a factor 8) and ``J`` stays above
+    zero; from the flybar's pair with the paper parameters free by a factor 10
+    (:func:`fit_beside_flybar`) the truth is recovered."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose import _below_vocabulary, fit_beside_flybar
+    from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO_STRUCTURE, fit_linear_candidates
+    from jaxgwo._effects import rotor_flapping_response, structural_mode_response
+    from jaxgwo._models import ParameterMap
+
+    p = np.array([306.0, 0.049, 270.0, 41.8, 0.43])
+    tau_f, pair = 0.02, (1.8, 0.12, 0.93)
+    resp = _response(lambda w: rotor_flapping_response(jnp.asarray(p), w, tau_f) * structural_mode_response(w, *pair))
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(PaperModel.from_array(jnp.asarray(p))))
+    kw = dict(wolves=10, iterations=25)
+    (s,) = fit_linear_candidates(obj, np.log([230.0, 0.6, 150.0, 45.0, 0.3]), [("structural_mode",)],
+                                 jax.random.key(1), z_hi=_Z_HI_STRUCTURE, z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
+    mode = s.params["structural_mode"]
+    assert not _below_vocabulary(mode) and mode["zeta_z"] > 1.0 and np.exp(s.x[1]) > 0.3
+    names = [("structural_mode", "rotor_flapping")]
+    (near,) = fit_linear_candidates(obj, s.x[:5], names, jax.random.key(2), effect_seed=s.x[5:],
+                                    z_hi=_Z_HI_STRUCTURE, z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
+    (low,) = fit_beside_flybar(obj, s.x[:5], names, s.x[5:], jax.random.key(2), **kw)
+    assert np.exp(near.x[1]) >= np.exp(s.x[1]) / 8.0 * (1.0 - 1e-6)  # tau on the polish box's edge
+    assert near.cost_J > 1e-4
+    assert low.cost_J < 1e-8
+    np.testing.assert_allclose(np.exp(low.x[:5]), p, rtol=1e-4)
+    assert low.params["rotor_flapping"]["tau_f"] == pytest.approx(tau_f, rel=1e-4)
+    got = low.params["structural_mode"]
+    assert [got[k] for k in ("freq_hz", "zeta_p", "zeta_z")] == pytest.approx(list(pair), rel=1e-4)
+
+
 def _mode_np(w, freq_hz, zeta_p, zeta_z):
     """A ``structural_mode``'s response in plain NumPy."""
     wn = 2 * np.pi * freq_hz
