@@ -341,6 +341,45 @@ def test_a_lag_that_pressed_the_structure_pair_up_is_refitted_beside_the_flybar(
     assert [got[k] for k in ("freq_hz", "zeta_p", "zeta_z")] == pytest.approx(list(pair), rel=1e-4)
 
 
+def test_a_resonance_taken_for_the_structure_pair_is_refitted_beside_the_flybar():
+    """Noise-free, to 21 Hz: the paper model times a flybar pair (1.7 Hz, poles 0.2, zeros
+    0.8) times a 16 Hz resonance (poles 0.03, zeros 0.28).  One pair in the structure
+    step's box takes the resonance, with real zeros; from it
+    :func:`fit_flybar_and_resonance` refits the pair below the vocabulary's floor and the
+    resonance beside it, recovering both and fitting ``J`` far better.  The trigger,
+    :func:`_resonance_taken_for_structure`: a lightly damped pair above the floor, not a
+    flybar's pair below it nor one a lag pressed up."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose import _resonance_taken_for_structure, fit_flybar_and_resonance
+    from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO_STRUCTURE, fit_linear_candidates
+    from jaxgwo._effects import structural_mode_response
+    from jaxgwo._models import ParameterMap
+
+    pair, res = (1.7, 0.2, 0.8), (16.0, 0.03, 0.28)
+    w = jnp.geomspace(1.0, 130.0, 80)
+    h = float(np.sign(float(MODEL.K))) * MODEL.frequency_response(w)
+    resp = FrequencyResponse(w=w, H=h * structural_mode_response(w, *pair) * structural_mode_response(w, *res),
+                             coherence=jnp.full_like(w, 0.95), random_error=jnp.full_like(w, 0.01),
+                             n_averages=jnp.full_like(w, 50.0), mask=jnp.ones_like(w, dtype=bool),
+                             window_s=jnp.full_like(w, 10.0))  # fmt: skip
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    kw = dict(wolves=10, iterations=25)
+    (one,) = fit_linear_candidates(obj, np.log(np.abs(np.asarray(MODEL.to_array(), float))), [("structural_mode",)],
+                                   jax.random.key(1), z_hi=_Z_HI_STRUCTURE, z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
+    m = one.params["structural_mode"]
+    assert abs(m["freq_hz"] / res[0] - 1.0) < 0.1 and m["zeta_z"] > 1.0
+    low, beside = fit_flybar_and_resonance(obj, one.x, jax.random.key(2), **kw)
+    assert low.params["structural_mode"]["freq_hz"] < 3.0
+    assert beside.cost_J < 1e-3 * one.cost_J
+    got = beside.params["structural_mode"]
+    assert [got[k] for k in ("freq_hz", "zeta_p", "zeta_z")] == pytest.approx(list(res), rel=0.01)
+    np.testing.assert_allclose(np.exp(beside.x[:5]), np.abs(np.asarray(MODEL.to_array(), float)), rtol=0.01)
+    assert _resonance_taken_for_structure({"freq_hz": 17.6, "zeta_p": 0.07, "zeta_z": 8.8})  # seed-149 case_004
+    assert not _resonance_taken_for_structure({"freq_hz": 2.03, "zeta_p": 0.05, "zeta_z": 0.9})  # below the floor
+    assert not _resonance_taken_for_structure({"freq_hz": 8.7, "zeta_p": 0.32, "zeta_z": 4.5})  # a lag's pressed pair
+    assert not _resonance_taken_for_structure(m)  # noise-free, the one pair fits poles 0.24: no trigger
+
+
 def _mode_np(w, freq_hz, zeta_p, zeta_z):
     """A ``structural_mode``'s response in plain NumPy."""
     wn = 2 * np.pi * freq_hz
