@@ -1046,12 +1046,12 @@ def _airframe_pair(mode: Mapping[str, float], structure_zeta_z: float) -> bool:
 
 _Z_FLYBAR_START = np.log([2.0, 0.2, 0.9])
 """Where :func:`rank`'s second start puts a structure finding's pair: below the vocabulary's
-box, where the R-50 ``none`` cases of the stored blind seeds fitted it (1.5-2.1 Hz, pole
-damping 0.16-0.25, zeros 0.55-1.12)."""
+box, where the R-50 ``none`` cases of the stored blind seeds fitted it (1.56-1.88 Hz, pole
+damping 0.17-0.25, zeros 0.55-1.12)."""
 
 _LAG_BESIDE_FLYBAR_SEARCH = 10.0
 """The factor the paper parameters may move from a structure finding's fit in that second
-start (2 in the first, and the polish a factor 4 beyond): beside a pair pressed up to 7 Hz
+start (2 in the first, and the polish a factor 4 beyond): beside a pair pressed up to 7.6 Hz
 by a 25 ms flapping lag the rotor term's ``tau`` is 0.70, beside the flybar's pair and the
 lag 0.054 (noise-free R-50, a factor 13)."""
 
@@ -1065,7 +1065,7 @@ _AIRFRAME_LEAST_ZETA_P = 0.1
 """The least pole damping of an airframe pair above the vocabulary's floor
 (:func:`_resonance_taken_for_structure`): the vocabulary's resonances are drawn at
 0.02-0.08.  Over the structure findings of the stored blind seeds (113, 131, 137, 149,
-151, 157, 163) the pairs at the flybar's 1.5-2.1 Hz fitted pole damping 0.10-0.25, those
+151, 157, 163) the pairs at the flybar's 1.4-2.1 Hz fitted pole damping 0.10-0.28, those
 above the floor (4.9-11.7 Hz, where a lag, a delay or a saturation pressed the R-50's
 pair up, and two paper plants') 0.155-0.77, but for two true R-50 resonances, 17.6 Hz at
 0.07 and 18.0 Hz at 0.03 (zeros 8.8 and 7.6)."""
@@ -1319,7 +1319,7 @@ def diagnose(
         if base.linear == ("structural_mode",) and lin and not _below_vocabulary(base.spec.effects["structural_mode"]):
             # A structure finding above the vocabulary's floor, with real zeros, is often a lag
             # the paper model took as a pole pair: a flapping lag of 15-25 ms on the noise-free
-            # R-50 presses the pair to 7-8 Hz (zeros 3.7-3.8, the rotor term's tau 0.40-0.70),
+            # R-50 presses the pair to 7.6-8.1 Hz (zeros 4.0, the rotor term's tau 0.40-0.69),
             # where beside the lag it lies on the flybar's 1.8 Hz and tau is the R-50's 0.05-0.06.
             # Around the finding's paper parameters (the polish reaches a factor 8) that fit is
             # out of reach; each linear candidate is refitted from the flybar's pair as well,
@@ -1591,8 +1591,8 @@ def diagnose(
         elif _resonance_taken_for_structure(structure.params["structural_mode"]):
             # A lightly damped pole pair above the vocabulary's floor is a resonance whose
             # zeros ran to the structure box's top, not an airframe pair (on the R-50 `none`
-            # cases of the stored blind seeds the pair lay at 1.5-2.1 Hz, pole damping
-            # 0.16-0.25).  The airframe pair is refitted below the floor (fit_beside_flybar)
+            # cases of the stored blind seeds the pair lay at 1.56-1.88 Hz, pole damping
+            # 0.17-0.25).  The airframe pair is refitted below the floor (fit_beside_flybar)
             # and a resonance beside it (fit_resonance_beside_pair); where the two fit J
             # better than the pair alone, that pair is the structure finding, and the
             # resonance is a candidate on top of it like any other (second_pole_pair).
