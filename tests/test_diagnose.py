@@ -68,8 +68,8 @@ def test_bands_from_flags_against_hand_count():
     assert bands_from_flags(f, flags, max_gap=0) == [[1.0, 2.0]]
 
 
-def _response(h, eps=0.01):
-    w = jnp.geomspace(1.0, 60.0, 80)
+def _response(h, eps=0.01, w_max=60.0):
+    w = jnp.geomspace(1.0, w_max, 80)
     return FrequencyResponse(w=w, H=h(w), coherence=jnp.full_like(w, 0.95), random_error=jnp.full_like(w, eps),
                              n_averages=jnp.full_like(w, 50.0), mask=jnp.ones_like(w, dtype=bool),
                              window_s=jnp.full_like(w, 10.0))  # fmt: skip
@@ -356,12 +356,9 @@ def test_a_resonance_taken_for_the_structure_pair_is_refitted_beside_the_flybar(
     from jaxgwo._models import ParameterMap
 
     pair, res = (1.7, 0.2, 0.8), (16.0, 0.03, 0.28)
-    w = jnp.geomspace(1.0, 130.0, 80)
-    h = float(np.sign(float(MODEL.K))) * MODEL.frequency_response(w)
-    resp = FrequencyResponse(w=w, H=h * structural_mode_response(w, *pair) * structural_mode_response(w, *res),
-                             coherence=jnp.full_like(w, 0.95), random_error=jnp.full_like(w, 0.01),
-                             n_averages=jnp.full_like(w, 50.0), mask=jnp.ones_like(w, dtype=bool),
-                             window_s=jnp.full_like(w, 10.0))  # fmt: skip
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, *pair)
+                     * structural_mode_response(w, *res), w_max=130.0)  # fmt: skip
     obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
     kw = dict(wolves=10, iterations=25)
     (one,) = fit_linear_candidates(obj, np.log(np.abs(np.asarray(MODEL.to_array(), float))), [("structural_mode",)],
