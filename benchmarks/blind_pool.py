@@ -1,0 +1,182 @@
+"""Pool several draws of the blind study (issue 5) into one table.
+
+    python benchmarks/blind_pool.py W1 W2 ... [--out benchmarks/results/blind_pool.md]
+
+Each ``W`` is a workdir of ``benchmarks/blind_diagnosis.py`` that holds its key and its
+diagnoses (``key.json``, ``diagnoses.json``, ``draw.json``, the records).  Every draw is
+scored as that script scores it (:func:`blind_diagnosis.score`); nothing is diagnosed
+again, so each draw counts with the diagnoses stored in its workdir, made by whichever
+commit diagnosed it last (each draw's own report names it).  One draw of 64 effect cases
+measures top-1 to about +-10 % (95 %); the pooled count, with its Wilson interval, says
+whether a target is met or missed beyond that draw-to-draw spread, and the tables below it
+say where the misses lie: by plant and effect, and whether the oracle found the effect
+identifiable at all (``ORACLE_Z``; on an R-50, against the paper model with one extra
+pole pair, the model the diagnosis ranks its effects on there).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import math
+import os
+import sys
+from collections import Counter
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+TARGET_TOP1, TARGET_TOP2 = 0.85, 0.95  # issue 5
+
+
+def _blind():
+    """``benchmarks/blind_diagnosis.py`` as a module (a script, not part of the package)."""
+    spec = importlib.util.spec_from_file_location("blind_diagnosis", os.path.join(HERE, "blind_diagnosis.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def wilson_interval(hits: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson's score interval for a binomial proportion ``hits``/``n`` (95 % by default):
+    unlike the normal one it stays inside [0, 1] and gives 0 hits of ``n`` a non-zero
+    upper bound.  ``(nan, nan)`` without cases."""
+    if n <= 0:
+        return math.nan, math.nan
+    p = hits / n
+    den = 1.0 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, mid - half), min(1.0, mid + half)
+
+
+def identifiable(row: dict) -> bool:
+    """Whether the oracle found the row's effect identifiable: on a paper plant against the
+    paper model (``identifiable``), on an R-50 against the paper model with one extra pole
+    pair (``identifiable_mode``) where the key has that oracle."""
+    if row["truth"] == "none":
+        return True
+    if row.get("oracle_z_mode") is not None:
+        return bool(row["identifiable_mode"])
+    return bool(row["identifiable"])
+
+
+def load_draws(workdirs, blind=None) -> list[dict]:
+    """``[{"workdir", "seed", "attitude", "rows"}]``: each workdir's draw arguments and its
+    scored rows.  A workdir without ``diagnoses.json`` (simulated, never diagnosed) or with
+    cases the diagnoses lack is refused: a part-diagnosed draw would bias the pool toward
+    its first cases."""
+    blind = blind or _blind()
+    draws = []
+    for w in workdirs:
+        missing = [f for f in ("key.json", "diagnoses.json", "draw.json") if not os.path.exists(os.path.join(w, f))]
+        if missing:
+            raise SystemExit(f"{w}: no {', '.join(missing)}; pass workdirs that blind_diagnosis.py simulated "
+                             "and diagnosed (--simulate-only, then --reuse).")
+        with open(os.path.join(w, "draw.json")) as f:
+            draw = json.load(f)
+        with open(os.path.join(w, "key.json")) as f:
+            key = json.load(f)
+        with open(os.path.join(w, "diagnoses.json")) as f:
+            results = json.load(f)
+        lacking = sorted(set(key) - set(results))
+        if lacking:
+            raise SystemExit(f"{w}: {len(lacking)} of {len(key)} cases have no diagnosis (first {lacking[0]}); "
+                             "finish the draw (--reuse --resume) before pooling it.")
+        rows = blind.score(w, results)["rows"]
+        draws.append({"workdir": w, "seed": draw.get("seed"), "attitude": bool(draw.get("attitude")), "rows": rows})
+    seeds = [d["seed"] for d in draws]
+    dup = sorted({s for s in seeds if seeds.count(s) > 1 and s is not None})
+    if dup:
+        raise SystemExit(f"seed(s) {dup} appear in more than one workdir: a draw counts once in a pool.")
+    return draws
+
+
+def _cell(hits: int, n: int) -> str:
+    if not n:
+        return "-"
+    lo, hi = wilson_interval(hits, n)
+    return f"{100 * hits / n:.0f} % ({hits}/{n}; {100 * lo:.0f}-{100 * hi:.0f})"
+
+
+def _count(rows, key: str = "top1") -> str:
+    """``hits/n`` of the flag ``key`` over ``rows``."""
+    return f"{sum(r[key] for r in rows)}/{len(rows)}"
+
+
+def pool_report(draws: list[dict], argv: list[str]) -> str:
+    """The markdown of the pooled study."""
+    rows = [r for d in draws for r in d["rows"]]
+    eff = [r for r in rows if r["truth"] != "none"]
+    nones = [r for r in rows if r["truth"] == "none"]
+    L = ["# Blind diagnosis study, draws pooled", "",
+         f"`python benchmarks/blind_pool.py {' '.join(argv)}`", "",
+         f"{len(draws)} draws, {len(rows)} cases ({len(eff)} with an effect, {len(nones)} without). Each draw is "
+         "scored from the diagnoses stored in its workdir, so the draws may come from different commits (each "
+         "draw's own report names its commit). Percentages with their 95 % Wilson interval.", "",
+         "| seed | attitude | top-1 | top-2 | false alarms on none | top-1 paper | top-1 R-50 | top-1 identifiable |",
+         "|---|---|---|---|---|---|---|---|"]
+    for d in draws:
+        e = [r for r in d["rows"] if r["truth"] != "none"]
+        n = [r for r in d["rows"] if r["truth"] == "none"]
+        fa_d = sum(r["verdict"] != "none" for r in n)
+        L.append(f"| {d['seed']} | {'yes' if d['attitude'] else 'no'} | {_count(e)} | {_count(e, 'top2')} | "
+                 f"{fa_d}/{len(n)} | {_count([r for r in e if r['plant'] == 'paper'])} | "
+                 f"{_count([r for r in e if r['plant'] == 'r50'])} | {_count([r for r in e if identifiable(r)])} |")
+    n1, n2 = sum(r["top1"] for r in eff), sum(r["top2"] for r in eff)
+    n_ord = sum(r["truth"] in r["order2"] for r in eff)
+    fa = sum(r["verdict"] != "none" for r in nones)
+    idf = [r for r in eff if identifiable(r)]
+    L += ["", "| pooled | value (95 % interval) | target |", "|---|---|---|",
+          f"| top-1 over effects | {_cell(n1, len(eff))} | >= {100 * TARGET_TOP1:.0f} % |",
+          f"| top-2 over effects (candidates that beat noise) | {_cell(n2, len(eff))} | >= {100 * TARGET_TOP2:.0f} % |",
+          f"| top-2 over the whole ranking (`class_order`) | {_cell(n_ord, len(eff))} | |",
+          f"| false alarms on none | {_cell(fa, len(nones))} | 0 % |",
+          f"| top-1 over identifiable effects | {_cell(sum(r['top1'] for r in idf), len(idf))} | |",
+          f"| top-1 over effects the oracle finds unidentifiable | "
+          f"{_cell(sum(r['top1'] for r in eff if not identifiable(r)), len(eff) - len(idf))} | |"]
+    for plant in ("paper", "r50"):
+        pr = [r for r in eff if r["plant"] == plant]
+        L.append(f"| top-1 on {plant} plants | {_cell(sum(r['top1'] for r in pr), len(pr))} | |")
+    classes = [c for c in _blind().CLASSES if c != "none" and any(r["truth"] == c for r in rows)]
+    L += ["", "## Top-1 by effect and plant (identifiable ones in brackets)", "",
+          "| effect | paper | R-50 | all |", "|---|---|---|---|"]
+    for c in classes:
+        cells = []
+        for sel in ("paper", "r50", None):
+            rs = [r for r in eff if r["truth"] == c and (sel is None or r["plant"] == sel)]
+            ri = [r for r in rs if identifiable(r)]
+            cells.append(f"{sum(r['top1'] for r in rs)}/{len(rs)} ({sum(r['top1'] for r in ri)}/{len(ri)})"
+                         if rs else "-")
+        L.append(f"| {c} | " + " | ".join(cells) + " |")
+    miss = [r for r in eff if not r["top1"]]
+    L += ["", f"## The {len(miss)} misses", "",
+          f"Answered `none`: {sum(r['verdict'] == 'none' for r in miss)}; another effect: "
+          f"{sum(r['verdict'] != 'none' for r in miss)}; identifiable by the oracle: "
+          f"{sum(identifiable(r) for r in miss)}.", "",
+          "| plant | truth | verdict | misses | of them identifiable |", "|---|---|---|---|---|"]
+    by = Counter((r["plant"], r["truth"], r["verdict"]) for r in miss)
+    by_idf = Counter((r["plant"], r["truth"], r["verdict"]) for r in miss if identifiable(r))
+    for (plant, truth, verdict), k in sorted(by.items(), key=lambda kv: (-kv[1], kv[0])):
+        L.append(f"| {plant} | {truth} | {verdict} | {k} | {by_idf[(plant, truth, verdict)]} |")
+    return "\n".join(L) + "\n"
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("workdirs", nargs="+", help="blind_diagnosis.py workdirs, each simulated and diagnosed")
+    ap.add_argument("--out", default=None, help="write the markdown here (default: print it)")
+    args = ap.parse_args(argv)
+    text = pool_report(load_draws(args.workdirs), argv)
+    if args.out:
+        from jaxgwo._atomic import atomic_write_text
+
+        atomic_write_text(args.out, text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
