@@ -1786,3 +1786,35 @@ def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
     assert sc.z_score > 10.0 and sc.gap_closed > 0.0
     assert sc.delta_bic_val == pytest.approx(240.0 * np.log(0.987**2) + np.log(240.0), rel=1e-6)
     assert -HELD_OUT_FIRST_BIC < sc.delta_bic_val < 0.0 and not sc.beats_noise
+
+
+def _mode_fit(freq_hz, zeta_p, zeta_z, p=1e-10, dbic=-20.0):
+    """A ``structural_mode`` J fit's score with its evidence (the fields _same_resonance reads)."""
+    sc = _scored("structural_mode", 0.0, ok=False)
+    return dataclasses.replace(sc, params={"structural_mode": {"freq_hz": freq_hz, "zeta_p": zeta_p, "zeta_z": zeta_z}},
+                               train_p=p, delta_bic=dbic)  # fmt: skip
+
+
+@pytest.mark.parametrize("j, td, same", [
+    # seed-173 case_020's two fits: J 9.71 Hz (p 8e-17), the output-error refit 9.63 Hz
+    ((9.71, 0.085, 0.171), 9.63, True),
+    ((9.71, 0.085, 0.171), 9.71 * 1.084, True),  # just inside the half-power half-width (8.5 %)
+    ((9.71, 0.085, 0.171), 9.71 * 1.086, False),  # just outside it
+    ((9.71, 0.085, 0.171), 9.71 * 0.914, False),
+    ((8.65, 0.335, 1.5), 7.84, False),  # a broad pair imitating a lag (seed-163 case_068): no resonance
+    ((45.0, 0.01, 1.5), 45.0, False),  # on the box's edge (rate limits)
+    ((11.10, 0.046, 1.082), 10.56, False),  # seed-163 case_025: 0.54 Hz apart, half-width 0.51
+])  # fmt: skip
+def test_a_resonance_found_by_j_and_the_matched_filter_is_one_finding(j, td, same):
+    from jaxgwo._diagnose import _same_resonance
+
+    assert _same_resonance(_mode_fit(*j), {"freq_hz": td, "zeta_p": 0.07, "zeta_z": 0.15}, 1e-3) is same
+
+
+def test_a_resonance_j_does_not_find_on_its_own_needs_the_held_out_confirmation():
+    from jaxgwo._diagnose import _same_resonance
+
+    td = {"freq_hz": 9.63, "zeta_p": 0.074, "zeta_z": 0.145}
+    assert _same_resonance(_mode_fit(9.71, 0.085, 0.171), td, 1e-3)
+    assert not _same_resonance(_mode_fit(9.71, 0.085, 0.171, p=2e-3), td, 1e-3)  # J's F-test fails alpha
+    assert not _same_resonance(_mode_fit(9.71, 0.085, 0.171, dbic=0.5), td, 1e-3)  # its BIC does not improve
