@@ -1,21 +1,16 @@
 """Pooling draws of the blind study (benchmarks/blind_pool.py)."""
 
-import importlib.util
 import json
 import os
 
 import pytest
 import scipy.stats
-
-_PATH = os.path.join(os.path.dirname(__file__), os.pardir, "benchmarks", "blind_pool.py")
+from _benchmarks import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def pool():
-    spec = importlib.util.spec_from_file_location("blind_pool", _PATH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("blind_pool")
 
 
 @pytest.mark.parametrize("hits,n", [(0, 56), (3, 56), (365, 448), (64, 64), (1, 1)])

@@ -1,21 +1,15 @@
 """The blind study's reading of a report as an ordering of the classes (benchmarks/blind_diagnosis.py)."""
 
 import argparse
-import importlib.util
-import os
 
 import numpy as np
 import pytest
-
-_PATH = os.path.join(os.path.dirname(__file__), os.pardir, "benchmarks", "blind_diagnosis.py")
+from _benchmarks import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def blind():
-    spec = importlib.util.spec_from_file_location("blind_diagnosis", _PATH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("blind_diagnosis")
 
 
 def _doc(*entries):
