@@ -17,6 +17,7 @@ pole pair, the model the diagnosis ranks its effects on there).
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib.util
 import json
 import math
@@ -28,8 +29,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 TARGET_TOP1, TARGET_TOP2 = 0.85, 0.95  # issue 5
 
 
+@functools.cache
 def _blind():
-    """``benchmarks/blind_diagnosis.py`` as a module (a script, not part of the package)."""
+    """``benchmarks/blind_diagnosis.py`` as a module (a script, not part of the package),
+    executed once: :func:`load_draws` scores with it, :func:`pool_report` reads its classes."""
     spec = importlib.util.spec_from_file_location("blind_diagnosis", os.path.join(HERE, "blind_diagnosis.py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
