@@ -1423,7 +1423,8 @@ def diagnose(
             td_spec = tdf.spec(fit_base)
             p_td = f_test_p(null.train_mse, tdf.train_mse, k, n_nl - 4 - k)
             det_mf = {}
-            if mode_starts and not fit_base.fixed_modes and _resonance_in_box(tdf.params["structural_mode"]):
+            matched = mode_starts and not fit_base.fixed_modes and _resonance_in_box(tdf.params["structural_mode"])
+            if matched:
                 # a resonance on the paper model alone: its evidence is the matched filter's
                 # (_resonance_in_box); td_p_output_error below is then its p, td_p_f_test the F-test's
                 td_res = [y - simulate_model(td_spec, t, u) for t, u, _o, y in tt]
@@ -1433,7 +1434,7 @@ def diagnose(
             ev = output_error_evidence(null.train_mse, tdf.train_mse, k, n_nl)
             # J and the matched filter finding one resonance are two independent tests that
             # agree: the refit then needs the held-out records only not to contradict it
-            agree = bool(det_mf) and _same_resonance(sc, tdf.params["structural_mode"], settings.alpha)
+            agree = matched and _same_resonance(sc, tdf.params["structural_mode"], settings.alpha)
             sc_td = score(base, own, {e: tdf.params[e] for e in own}, {e: tdf.sigma[e] for e in own}, td_spec,
                           sim_J(td_spec), base.cost_J_sim, k, baseline=val_null, extra_p=p_td, j_required=False,
                           evidence=ev, time_domain=True, confirm=not agree)  # fmt: skip
