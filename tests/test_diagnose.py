@@ -1576,35 +1576,69 @@ def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing
 
     td_pass, td_fail = td_mode(0.2), td_mode(0.2, ok=False)
     # J found no linear effect: a refit that passes decides (the rule before)
-    assert _takes_time_domain_path(j(False, p=0.02), td_pass, j_found=False, alpha=1e-3)
+    assert _takes_time_domain_path(j(False, p=0.02), td_pass, j_found=False, alpha=1e-3, m_eff=40.0)
     # J finds this effect, its fit fails on VAL, the refit passes: two tests agree (seed-61 case_066)
-    assert _takes_time_domain_path(j(False), td_pass, j_found=True, alpha=1e-3)
+    assert _takes_time_domain_path(j(False), td_pass, j_found=True, alpha=1e-3, m_eff=40.0)
     # ... not when J's own evidence is short of the level or of a BIC gain
-    assert not _takes_time_domain_path(j(False, p=0.02), td_pass, j_found=True, alpha=1e-3)
-    assert not _takes_time_domain_path(j(False, dbic=3.0), td_pass, j_found=True, alpha=1e-3)
+    assert not _takes_time_domain_path(j(False, p=0.02), td_pass, j_found=True, alpha=1e-3, m_eff=40.0)
+    assert not _takes_time_domain_path(j(False, dbic=3.0), td_pass, j_found=True, alpha=1e-3, m_eff=40.0)
     # a J fit that passes stands; a refit that fails, or none, never stands in
-    assert not _takes_time_domain_path(j(True), td_pass, j_found=True, alpha=1e-3)
-    assert not _takes_time_domain_path(j(False), td_fail, j_found=True, alpha=1e-3)
-    assert not _takes_time_domain_path(j(False), td_fail, j_found=False, alpha=1e-3)
-    assert not _takes_time_domain_path(j(False), None, j_found=False, alpha=1e-3)
+    assert not _takes_time_domain_path(j(True), td_pass, j_found=True, alpha=1e-3, m_eff=40.0)
+    assert not _takes_time_domain_path(j(False), td_fail, j_found=True, alpha=1e-3, m_eff=40.0)
+    assert not _takes_time_domain_path(j(False), td_fail, j_found=False, alpha=1e-3, m_eff=40.0)
+    assert not _takes_time_domain_path(j(False), None, j_found=False, alpha=1e-3, m_eff=40.0)
     # a mode refit with real zeros (zero damping above structure_zeta_z) is no resonance:
     # it never stands in (seed-89 case_064); one with complex zeros does, as before
     for found in (False, True):
-        assert not _takes_time_domain_path(j(False), td_mode(8.4), j_found=found, alpha=1e-3, structure_zeta_z=1.0)
-        assert _takes_time_domain_path(j(False), td_mode(0.2), j_found=found, alpha=1e-3, structure_zeta_z=1.0)
-    assert _takes_time_domain_path(j(False), td_mode(8.4), j_found=True, alpha=1e-3)  # the rule off (inf)
+        assert not _takes_time_domain_path(j(False), td_mode(8.4), j_found=found, alpha=1e-3, structure_zeta_z=1.0, m_eff=40.0)
+        assert _takes_time_domain_path(j(False), td_mode(0.2), j_found=found, alpha=1e-3, structure_zeta_z=1.0, m_eff=40.0)
+    assert _takes_time_domain_path(j(False), td_mode(8.4), j_found=True, alpha=1e-3, m_eff=40.0)  # the rule off (inf)
     # a broad pole pair is no resonance either, whatever its zeros: the 45 Hz corner fit
     # (pole damping 0.99) and the 4.9 Hz one (0.44) of seed-89 case_064 never stand in;
     # the true modes' refits (0.026-0.073) do
     for found in (False, True):
         for zeta_p, zeta_z, f in ((0.99, 0.02, 45.0), (0.44, 0.2, 4.9), (0.21, 0.2, 12.0)):
             assert not _takes_time_domain_path(j(False), td_mode(zeta_z, zeta_p=zeta_p, freq_hz=f), j_found=found,
-                                               alpha=1e-3, structure_zeta_z=1.0)
+                                               alpha=1e-3, structure_zeta_z=1.0, m_eff=40.0)
         for zeta_p in (0.026, 0.073, 0.2):
             assert _takes_time_domain_path(j(False), td_mode(0.2, zeta_p=zeta_p), j_found=found, alpha=1e-3,
-                                           structure_zeta_z=1.0)
+                                           structure_zeta_z=1.0, m_eff=40.0)
     lag = dataclasses.replace(_scored("sensor_lag", 0.8, True), params={"sensor_lag": {"cutoff_hz": 20.0}})
-    assert _takes_time_domain_path(j(False), lag, j_found=True, alpha=1e-3, structure_zeta_z=1.0)
+    assert _takes_time_domain_path(j(False), lag, j_found=True, alpha=1e-3, structure_zeta_z=1.0, m_eff=40.0)
+
+
+def test_a_time_domain_refit_the_measured_response_contradicts_never_stands_in():
+    """A lag refitted by output error whose simulated response fits ``J`` far worse than the
+    base's (seed-179 R-50 `none` case_041: 17.08 against 3.47 on 43.4 independent
+    frequencies) does not stand in; a refit that fits it about as well does (seed-157
+    case_020's 9.6 Hz mode: 1.82 against 1.42, three parameters, 38 frequencies)."""
+    import scipy.stats
+
+    from jaxgwo._diagnose import _takes_time_domain_path
+    from jaxgwo._diagnose_which import j_worse_p
+
+    def td(effect, cost_j, nominal_j, k, ok=True):
+        return dataclasses.replace(_scored(effect, 0.8, ok), cost_J=cost_j, nominal_J=nominal_j, n_params=k)
+
+    j_none = dataclasses.replace(_scored("rotor_flapping", -9.0, False), train_p=1.0, delta_bic=3.0)
+    lag, mode = td("rotor_flapping", 17.08, 3.47, 1), td("structural_mode", 1.82, 1.42, 3)
+    mode = dataclasses.replace(mode, params={"structural_mode": {"freq_hz": 9.6, "zeta_p": 0.07, "zeta_z": 0.15}})
+    # the reverse F-test against scipy's F distribution written out
+    f = (17.08 - 3.47) / 1 / (3.47 / (43.4 - 6))
+    assert j_worse_p(lag, 43.4) == pytest.approx(scipy.stats.f.sf(f, 1, 43.4 - 6), rel=1e-12)
+    assert j_worse_p(lag, 43.4) < 1e-13
+    assert 0.01 < j_worse_p(mode, 38.0) < 0.1
+    assert j_worse_p(td("time_delay", 2.41, 2.82, 1), 40.0) == 1.0  # fits J better: nothing to contradict
+    # too few frequencies: the degrees of freedom stop at the F-test's floor, as score_candidate's
+    assert j_worse_p(lag, 2.0) == j_worse_p(lag, 8.0)
+    assert not _takes_time_domain_path(j_none, lag, j_found=False, alpha=1e-3, m_eff=43.4)
+    assert _takes_time_domain_path(j_none, mode, j_found=False, alpha=1e-3, m_eff=38.0)
+    # the boundary: J worse by just less / more than the F-test allows at alpha
+    crit = scipy.stats.f.isf(1e-3, 1, 43.4 - 6)
+    at = 3.47 * (1.0 + crit / (43.4 - 6))
+    assert _takes_time_domain_path(j_none, td("time_delay", at * 0.99, 3.47, 1), j_found=False, alpha=1e-3, m_eff=43.4)
+    assert not _takes_time_domain_path(j_none, td("time_delay", at * 1.01, 3.47, 1), j_found=False, alpha=1e-3,
+                                       m_eff=43.4)
 
 
 @pytest.mark.parametrize("cut, corroborated, dbic_val, passes", [

@@ -65,6 +65,7 @@ from ._diagnose_which import (
     fit_linear_candidates,
     fit_nonlinear_candidates,
     held_out_fit,
+    j_worse_p,
     matched_filter_p,
     matched_filter_z,
     output_error_evidence,
@@ -929,7 +930,7 @@ class _Base:
 
 
 def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_found: bool, alpha: float,
-                            structure_zeta_z: float = math.inf) -> bool:
+                            structure_zeta_z: float = math.inf, *, m_eff: float) -> bool:
     """Whether a linear candidate is scored by its time-domain refit (``sc_td``) instead of
     its ``J`` fit (``sc``).  Only a refit that passes on its own (output-error F-test,
     confirmed on VAL against the null refit; a resonance that ``J`` and the matched filter
@@ -954,8 +955,22 @@ def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_
     0.99, imitated the lag.  The threshold is the mode-agreement signature's (set on seed
     41); on the stored rankings of development seeds 31, 41, 43, 61 and 89, every mode refit
     that stood in for a true mode fitted pole damping 0.026-0.073, those that stood in for
-    another effect 0.44 and 0.99."""
+    another effect 0.44 and 0.99.
+
+    Nor does a refit whose simulated response fits the measured one worse than the base's
+    by more than chance (:func:`j_worse_p` below ``alpha`` on ``m_eff`` independent
+    frequencies): a linear effect changes the response alike in both domains, and an
+    output-error gain the measured response contradicts is the refit bending the servo
+    and rotor term round something else, a gust or a nonlinearity.  On the stored rankings
+    of fresh seeds 131-179 and development seed 113, every lag that stood in so was a wrong
+    answer, and each one's ``J`` was 1.7-8.6 times the base's (reverse p 5e-5 to 1e-19:
+    R-50 `none` case 179/041, R-50 backlash 151/040 and 163/039, R-50 resonance 113/019;
+    second to fourth behind a true backlash on 163/067 and 173/015), while every refit
+    that stood in for its true effect fitted ``J`` 0.03-1.28 times the base's (reverse p
+    0.055 or more: the seven modes, one seed-113 gyro filter at 0.26)."""
     if sc_td is None or not sc_td.beats_noise or sc.beats_noise:
+        return False
+    if j_worse_p(sc_td, m_eff) < alpha:
         return False
     if sc_td.effects[-1:] == ("structural_mode",):
         mode = sc_td.params["structural_mode"]
@@ -1526,7 +1541,9 @@ def diagnose(
             lin_scores.append(second_pole_pair(base, jax.random.fold_in(k_lin, 7)))
         j_found = any(sc.beats_noise for _o, sc, *_r in lin_scores)
         for own, sc, sc_td, td_spec, det in lin_scores:
-            if _takes_time_domain_path(sc, sc_td, j_found, settings.alpha, settings.structure_zeta_z):
+            if sc_td is not None:
+                det["td_p_J_worse"] = j_worse_p(sc_td, m_eff)
+            if _takes_time_domain_path(sc, sc_td, j_found, settings.alpha, settings.structure_zeta_z, m_eff=m_eff):
                 sc, specs[own] = sc_td, td_spec
                 det["time_domain_path"] = 1.0
             elif sc_td is not None:

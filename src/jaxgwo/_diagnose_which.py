@@ -89,6 +89,7 @@ __all__ = [
     "with_fixed_modes",
     "simulated_response_cost",
     "f_test_p",
+    "j_worse_p",
     "output_error_evidence",
 ]
 
@@ -1479,6 +1480,17 @@ def f_test_p(before: float, after: float, n_params: int, dof: float) -> float:
         return 1.0
     f = (before - after) / n_params / (after / dof)
     return float(scipy.stats.f.sf(f, n_params, dof))
+
+
+def j_worse_p(sc: CandidateScore, m_eff: float) -> float:
+    """p-value of the F-test of :func:`score_candidate` read the other way round: that the
+    nominal's ``J`` (``sc.nominal_J``) is below the candidate's (``sc.cost_J``) by more than
+    chance, on ``m_eff`` independent frequencies with the candidate's ``n_params`` as the
+    numerator's degrees of freedom (1 where the candidate fits ``J`` no worse).  Small
+    where a time-domain refit describes the measured response worse than the model it
+    claims to improve (:func:`jaxgwo._diagnose._takes_time_domain_path`)."""
+    m = max(m_eff, sc.n_params + 7.0)
+    return f_test_p(sc.cost_J, sc.nominal_J, sc.n_params, m - 5 - sc.n_params)
 
 
 def output_error_evidence(before: float, after: float, n_params: int, n_eff: float) -> float:
