@@ -1617,8 +1617,11 @@ def test_a_time_domain_refit_the_measured_response_contradicts_never_stands_in()
     from jaxgwo._diagnose import _takes_time_domain_path
     from jaxgwo._diagnose_which import j_worse_p
 
+    values = {"rotor_flapping": {"tau_f": 0.010}, "time_delay": {"delay_s": 0.005}}
+
     def td(effect, cost_j, nominal_j, k, ok=True):
-        return dataclasses.replace(_scored(effect, 0.8, ok), cost_J=cost_j, nominal_J=nominal_j, n_params=k)
+        return dataclasses.replace(_scored(effect, 0.8, ok), cost_J=cost_j, nominal_J=nominal_j, n_params=k,
+                                   params={effect: values.get(effect, {})})
 
     j_none = dataclasses.replace(_scored("rotor_flapping", -9.0, False), train_p=1.0, delta_bic=3.0)
     lag, mode = td("rotor_flapping", 17.08, 3.47, 1), td("structural_mode", 1.82, 1.42, 3)
@@ -1639,6 +1642,26 @@ def test_a_time_domain_refit_the_measured_response_contradicts_never_stands_in()
     assert _takes_time_domain_path(j_none, td("time_delay", at * 0.99, 3.47, 1), j_found=False, alpha=1e-3, m_eff=43.4)
     assert not _takes_time_domain_path(j_none, td("time_delay", at * 1.01, 3.47, 1), j_found=False, alpha=1e-3,
                                        m_eff=43.4)
+
+
+def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
+    """Seed-173 case_026 (a rate limit) was called ``rotor_flapping`` by a refit whose lag
+    sat on the box's 0.2 ms floor, seed-137 case_052 (a rate limit) ``time_delay`` by one
+    with no delay: what passed was the servo and rotor term moving, not the effect."""
+    from jaxgwo._diagnose import _takes_time_domain_path
+    from jaxgwo._diagnose_which import _FLAP_LO_TIME_DOMAIN_S
+
+    j_none = dataclasses.replace(_scored("rotor_flapping", -9.0, False), train_p=1.0, delta_bic=3.0)
+
+    def td(effect, **params):
+        c = _scored(effect, 0.8, True)
+        return dataclasses.replace(c, cost_J=5.57, nominal_J=5.57, n_params=1, params={effect: params})
+
+    for effect, gone, there in (("rotor_flapping", {"tau_f": _FLAP_LO_TIME_DOMAIN_S}, {"tau_f": 0.012}),
+                                ("time_delay", {"delay_s": 1e-30}, {"delay_s": 0.004}),
+                                ("sensor_lag", {"cutoff_hz": 100.0}, {"cutoff_hz": 30.0})):
+        assert not _takes_time_domain_path(j_none, td(effect, **gone), j_found=False, alpha=1e-3, m_eff=40.0)
+        assert _takes_time_domain_path(j_none, td(effect, **there), j_found=False, alpha=1e-3, m_eff=40.0)
 
 
 @pytest.mark.parametrize("cut, corroborated, dbic_val, passes", [

@@ -967,8 +967,15 @@ def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_
     R-50 `none` case 179/041, R-50 backlash 151/040 and 163/039, R-50 resonance 113/019;
     second to fourth behind a true backlash on 163/067 and 173/015), while every refit
     that stood in for its true effect fitted ``J`` 0.03-1.28 times the base's (reverse p
-    0.055 or more: the seven modes, one seed-113 gyro filter at 0.26)."""
+    0.055 or more: the seven modes, one seed-113 gyro filter at 0.26).
+
+    Nor does a refit that stopped where its box makes the effect vanish (:func:`_vanished`):
+    its output-error gain over the null refit is then the servo's and rotor term's, not
+    the effect's (seed-173 case_026, a rate limit called ``rotor_flapping`` with the lag
+    at the box's 0.2 ms; seed-137 case_052, one called ``time_delay`` with no delay)."""
     if sc_td is None or not sc_td.beats_noise or sc.beats_noise:
+        return False
+    if any(_vanished(e, sc_td.params[e]) for e in sc_td.effects):
         return False
     if j_worse_p(sc_td, m_eff) < alpha:
         return False

@@ -17,8 +17,9 @@ nominal paper model, refitted, and scored on the held-out records in the time do
   Each is then checked in the time domain (:func:`refit_linear_time_domain`): refitted by
   output error, servo and rotor term with it, and tested against the null refit below as
   the nonlinear candidates are; that check decides where ``J`` finds no linear effect,
-  or where ``J`` finds one whose ``J`` fit the held-out records refuse
-  (:func:`jaxgwo._diagnose._takes_time_domain_path`).
+  or where ``J`` finds one whose ``J`` fit the held-out records refuse, and never where
+  the refit's simulated response fits ``J`` worse than the base's beyond chance
+  (:func:`j_worse_p`; :func:`jaxgwo._diagnose._takes_time_domain_path`).
 * ``cross_coupling`` has no single-input frequency-domain signature (the H1 estimate is
   unbiased when the cyclics are uncorrelated), so its gain is the least-squares
   regression of the time-domain residual of the *null refit* (below: the paper model
