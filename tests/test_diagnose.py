@@ -1644,6 +1644,25 @@ def test_a_time_domain_refit_the_measured_response_contradicts_never_stands_in()
                                        m_eff=43.4)
 
 
+
+def test_the_j_f_test_against_scipy_and_its_floor():
+    """``j_f_test_p``: the F-test of a J reduction on ``m_eff`` independent frequencies, as
+    scipy's F distribution gives it; seed-181 case_011's rate limit against its null refit
+    (J 33.3 -> 1.19) passes far beyond alpha, a `none` case's best (0.88 of the null's)
+    does not; fewer frequencies than the parameters need stop at the floor."""
+    import scipy.stats
+
+    from jaxgwo._diagnose_which import j_f_test_p
+
+    for before, after, k, m in ((33.34, 1.19, 1, 40.0), (9.06, 2.48, 1, 25.0), (4.0, 3.5, 3, 60.0)):
+        dof = m - 5 - k
+        want = scipy.stats.f.sf((before - after) / k / (after / dof), k, dof)
+        assert j_f_test_p(before, after, k, m) == pytest.approx(want, rel=1e-12)
+    assert j_f_test_p(33.34, 1.19, 1, 40.0) < 1e-20
+    assert j_f_test_p(1.0, 0.88, 1, 40.0) > 1e-3
+    assert j_f_test_p(1.0, 1.2, 1, 40.0) == 1.0  # no reduction
+    assert j_f_test_p(33.34, 1.19, 1, 3.0) == j_f_test_p(33.34, 1.19, 1, 8.0)
+
 def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
     """Seed-173 case_026 (a rate limit) was called ``rotor_flapping`` by a refit whose lag
     sat on the box's 0.2 ms floor, seed-137 case_052 (a rate limit) ``time_delay`` by one

@@ -90,6 +90,7 @@ __all__ = [
     "with_fixed_modes",
     "simulated_response_cost",
     "f_test_p",
+    "j_f_test_p",
     "j_worse_p",
     "output_error_evidence",
 ]
@@ -1483,6 +1484,16 @@ def f_test_p(before: float, after: float, n_params: int, dof: float) -> float:
     return float(scipy.stats.f.sf(f, n_params, dof))
 
 
+def j_f_test_p(before: float, after: float, n_params: int, m_eff: float) -> float:
+    """p-value of the F-test that ``n_params`` added parameters take ``J`` from ``before`` to
+    ``after`` on ``m_eff`` independent frequencies (at least ``n_params + 7``; the five
+    paper parameters and the added ones off the residual's degrees of freedom): the test of
+    :func:`score_candidate`, of a nonlinear refit against the null refit
+    (:func:`jaxgwo._diagnose.diagnose`) and, read the other way round, :func:`j_worse_p`."""
+    m = max(m_eff, n_params + 7.0)
+    return f_test_p(before, after, n_params, m - 5 - n_params)
+
+
 def j_worse_p(sc: CandidateScore, m_eff: float) -> float:
     """p-value of the F-test of :func:`score_candidate` read the other way round: that the
     nominal's ``J`` (``sc.nominal_J``) is below the candidate's (``sc.cost_J``) by more than
@@ -1490,8 +1501,7 @@ def j_worse_p(sc: CandidateScore, m_eff: float) -> float:
     numerator's degrees of freedom (1 where the candidate fits ``J`` no worse).  Small
     where a time-domain refit describes the measured response worse than the model it
     claims to improve (:func:`jaxgwo._diagnose._takes_time_domain_path`)."""
-    m = max(m_eff, sc.n_params + 7.0)
-    return f_test_p(sc.cost_J, sc.nominal_J, sc.n_params, m - 5 - sc.n_params)
+    return j_f_test_p(sc.cost_J, sc.nominal_J, sc.n_params, m_eff)
 
 
 def output_error_evidence(before: float, after: float, n_params: int, n_eff: float) -> float:
@@ -1577,7 +1587,7 @@ def score_candidate(
     m = max(m_eff, n_params + 7.0)
     ratio = cost_J / nominal_J if nominal_J > 0 and math.isfinite(cost_J) else 1.0
     dbic = m * math.log(max(ratio, 1e-12)) + n_params * math.log(m)
-    p_j = f_test_p(nominal_J, cost_J, n_params, m - 5 - n_params)
+    p_j = j_f_test_p(nominal_J, cost_J, n_params, m_eff)
     extra = 1.0 if extra_train_p is None else extra_train_p
     p_train = (p_j if extra_train_p is None else max(p_j, extra)) if j_required else extra
     closes = gap > min_gap
