@@ -34,9 +34,11 @@ nominal paper model, refitted, and scored on the held-out records in the time do
   refit without a nonlinearity, each polished by Nelder-Mead with the rotor term's
   ``tau`` and ``M`` freed as well; the output gain is refitted in closed form.  The
   nominal fit has already absorbed a nonlinearity's describing function (into the servo
-  and the rotor term), so ``J`` cannot see it: the evidence is the F-test of the
-  output-error reduction over the null refit, with ``n dt / T_c`` effective samples
-  (``T_c`` of the null refit's own residual).
+  and the rotor term), so ``J`` cannot see it against the nominal: the evidence is the
+  F-test of the output-error reduction over the null refit, with ``n dt / T_c`` effective
+  samples (``T_c`` of the null refit's own residual), or the F-test of ``J`` against the
+  null refit's own (:func:`j_f_test_p`: a linear model fitted to time histories a rate
+  limit distorts describes the measured response far worse than one with the limit).
 
 Every candidate also gets a ``J`` computed the same way as the nominal's: analytic for
 the linear ones, and for the time-domain ones from the response estimated from its
