@@ -1577,8 +1577,8 @@ def diagnose(
                 sc = dataclasses.replace(sc, detail={"passed_on_held_out_records": 1.0})
             scored.append(sc)
         if nl_names:
-            # the null refit's own J, the reference a nonlinearity's J is compared with in
-            # ``detail`` (the score's J0 stays the base's; recorded for the stored rankings)
+            # the null refit's own J, which a nonlinearity's J is tested against (below); the
+            # score's J0 stays the base's
             j_null = sim_J(null_spec)
             for f in nl:
                 spec = f.spec(td_base)
