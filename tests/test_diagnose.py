@@ -1512,6 +1512,11 @@ def _scored(effect, score, ok=True):
                           score, 1)  # fmt: skip
 
 
+def _j_found_nothing():
+    """A lag's ``J`` fit that found nothing (F-test p 1, BIC worse): its refit may stand in."""
+    return dataclasses.replace(_scored("rotor_flapping", -9.0, False), train_p=1.0, delta_bic=3.0)
+
+
 @pytest.mark.parametrize("scores, order", [
     # both lags within 0.15 go ahead of the delay, in their order; the rest keep theirs
     ({"time_delay": 2.0, "backlash": 1.95, "rotor_flapping": 1.9, "sensor_lag": 1.88, "saturation": 1.0},
@@ -1623,7 +1628,7 @@ def test_a_time_domain_refit_the_measured_response_contradicts_never_stands_in()
         return dataclasses.replace(_scored(effect, 0.8, ok), cost_J=cost_j, nominal_J=nominal_j, n_params=k,
                                    params={effect: values.get(effect, {})})
 
-    j_none = dataclasses.replace(_scored("rotor_flapping", -9.0, False), train_p=1.0, delta_bic=3.0)
+    j_none = _j_found_nothing()
     lag, mode = td("rotor_flapping", 17.08, 3.47, 1), td("structural_mode", 1.82, 1.42, 3)
     mode = dataclasses.replace(mode, params={"structural_mode": {"freq_hz": 9.6, "zeta_p": 0.07, "zeta_z": 0.15}})
     # the reverse F-test against scipy's F distribution written out
@@ -1644,7 +1649,6 @@ def test_a_time_domain_refit_the_measured_response_contradicts_never_stands_in()
                                        m_eff=43.4)
 
 
-
 def test_the_j_f_test_against_scipy_and_its_floor():
     """``j_f_test_p``: the F-test of a J reduction on ``m_eff`` independent frequencies, as
     scipy's F distribution gives it; seed-181 case_011's rate limit against its null refit
@@ -1663,6 +1667,7 @@ def test_the_j_f_test_against_scipy_and_its_floor():
     assert j_f_test_p(1.0, 1.2, 1, 40.0) == 1.0  # no reduction
     assert j_f_test_p(33.34, 1.19, 1, 3.0) == j_f_test_p(33.34, 1.19, 1, 8.0)
 
+
 def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
     """Seed-173 case_026 (a rate limit) was called ``rotor_flapping`` by a refit whose lag
     sat on the box's 0.2 ms floor, seed-137 case_052 (a rate limit) ``time_delay`` by one
@@ -1670,7 +1675,7 @@ def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
     from jaxgwo._diagnose import _takes_time_domain_path
     from jaxgwo._diagnose_which import _FLAP_LO_TIME_DOMAIN_S
 
-    j_none = dataclasses.replace(_scored("rotor_flapping", -9.0, False), train_p=1.0, delta_bic=3.0)
+    j_none = _j_found_nothing()
 
     def td(effect, **params):
         c = _scored(effect, 0.8, True)

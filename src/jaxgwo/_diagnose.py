@@ -693,6 +693,12 @@ def _resonance_in_box(mode: Mapping[str, float]) -> bool:
     return bool(peak and not _on_box_edge(mode, _Z_HI[3:6]))
 
 
+def _j_finds(sc: CandidateScore, alpha: float) -> bool:
+    """Whether a ``J`` fit's own identification evidence passes, whatever the held-out
+    records say: its F-test at ``alpha`` and its BIC."""
+    return sc.train_p < alpha and sc.delta_bic < 0.0
+
+
 def _same_resonance(sc_j: CandidateScore, mode_td: Mapping[str, float], alpha: float) -> bool:
     """Whether a ``structural_mode``'s ``J`` fit (score ``sc_j``) found, on its own
     evidence, the resonance its output-error refit ``mode_td`` found by the matched filter:
@@ -717,8 +723,7 @@ def _same_resonance(sc_j: CandidateScore, mode_td: Mapping[str, float], alpha: f
     damping 0.28-0.47 or on the box's 45 Hz edge (lags and rate limits)."""
     mode_j = sc_j.params["structural_mode"]
     return bool(
-        sc_j.train_p < alpha
-        and sc_j.delta_bic < 0.0
+        _j_finds(sc_j, alpha)
         and _resonance_in_box(mode_j)
         and abs(mode_td["freq_hz"] - mode_j["freq_hz"]) <= mode_j["zeta_p"] * mode_j["freq_hz"]
     )
@@ -984,7 +989,7 @@ def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_
         mode = sc_td.params["structural_mode"]
         if mode["zeta_z"] > structure_zeta_z or mode["zeta_p"] > _MODE_AGREEMENT_ZETA_P:
             return False
-    return not j_found or (sc.train_p < alpha and sc.delta_bic < 0.0)
+    return not j_found or _j_finds(sc, alpha)
 
 
 def _effect_size_passes(error_cut: float, min_error_ratio: float, corroborated: bool, delta_bic_val: float) -> bool:
