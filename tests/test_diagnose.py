@@ -1498,6 +1498,7 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
                                       ({"structure_zeta_z": 0.0}, "structure_zeta_z must be a positive number"),
                                       ({"lag_over_delay": -0.1}, "lag_over_delay must be a score margin >= 0"),
                                       ({"alpha_held_out_first": 1.0}, r"alpha_held_out_first must be a level in \[0, 1\)"),
+                                      ({"alpha_coupling_gain": -1e-5}, r"alpha_coupling_gain must be a level in \[0, 1\)"),
                                       ({"wolves": 3}, "wolves")])  # fmt: skip
 def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
     with pytest.raises(ValueError, match=what):
@@ -1899,3 +1900,34 @@ def test_a_resonance_j_does_not_find_on_its_own_needs_the_held_out_confirmation(
     assert _same_resonance(_mode_fit(9.71, 0.085, 0.171), td, 1e-3)
     assert not _same_resonance(_mode_fit(9.71, 0.085, 0.171, p=2e-3), td, 1e-3)  # J's F-test fails alpha
     assert not _same_resonance(_mode_fit(9.71, 0.085, 0.171, dbic=0.5), td, 1e-3)  # its BIC does not improve
+
+
+def test_a_coupling_far_beyond_noise_on_the_paper_model_needs_the_held_out_records_only_not_to_contradict_it():
+    """``alpha_coupling_gain``: the held-out multisteps here carry almost no off-axis stick
+    (0.002 rms against the sweeps' 0.02), so they cannot confirm a coupling of 0.1 (z below
+    ``z_min_time``, which refused it before); its gain, far beyond noise on the
+    identification records, carries the verdict, and the summary says so.  Without the
+    rule (``alpha_coupling_gain`` 0) this case answers ``none``: checked when it was set."""
+    k = jax.random.split(jax.random.key(4), 5)
+    n = int((3 + D + 2 + D + 2) * FS)
+    t = jnp.arange(n, dtype=jnp.float64) / FS
+    sw = frequency_sweep(t, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.05, start_s=3) + frequency_sweep(
+        t, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.09, start_s=5 + D)
+    eff = EffectSet().with_effect("cross_coupling", gain=0.1)
+    dist = Disturbance(gust_rms=0.05, snr_db=35.0)
+    tr = simulate(PaperPlant.default(), jnp.stack([sw, pilot_corrections(k[0], n, FS, rms=0.02)], 1), k[1],
+                  sample_rate_hz=FS, disturbance=dist, effects=eff)  # fmt: skip
+    nv = 2000
+    tv = jnp.arange(nv, dtype=jnp.float64) / FS
+    lat = (multistep_3211(tv, amplitude=0.075, unit_s=0.3, start_s=1.0) + doublet(tv, amplitude=0.075, pulse_s=0.4, start_s=10.0)
+           + pilot_corrections(k[2], nv, FS, rms=0.01))  # fmt: skip
+    va = simulate(PaperPlant.default(), jnp.stack([lat, pilot_corrections(k[3], nv, FS, rms=0.002)], 1), k[4],
+                  sample_rate_hz=FS, disturbance=dist, effects=eff)  # fmt: skip
+    d = diagnose([tr.to_record()], [va.to_record()], "lateral", SETTINGS)
+    assert d.verdict == "cross_coupling" and d.structure is None
+    top = d.ranking[0]
+    g, sg = top.params["cross_coupling"]["gain"], top.sigma["cross_coupling"]["gain"]
+    assert abs(g - 0.1) < 3 * sg and top.train_p < SETTINGS.alpha_coupling_gain
+    assert SETTINGS.z_min < top.z_score <= SETTINGS.z_min_time and top.gap_closed > 0.0
+    assert top.detail.get("passed_on_gain_alone") == 1.0
+    assert f"The identification records carry its evidence (gain p {top.train_p:.2g})" in d.summary()
