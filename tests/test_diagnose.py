@@ -1931,3 +1931,42 @@ def test_a_coupling_far_beyond_noise_on_the_paper_model_needs_the_held_out_recor
     assert SETTINGS.z_min < top.z_score <= SETTINGS.z_min_time and top.gap_closed > 0.0
     assert top.detail.get("passed_on_gain_alone") == 1.0
     assert f"The identification records carry its evidence (gain p {top.train_p:.2g})" in d.summary()
+
+
+def test_the_held_out_floor_of_each_route():
+    """``_held_out_floor``: a linear ``J`` fit need only not be contradicted; a
+    ``structural_mode`` and every time-domain candidate need a positive gap; a time-domain
+    candidate to be confirmed needs ``z_min_time``; a resonance that ``J`` and the matched
+    filter both find takes the linear ``J`` fit's floor.  Seed-181 case_063's refit (held-out
+    z 1.17, gap -0.009, made up here on a score) passes on that floor and on no other."""
+    from jaxgwo._diagnose import _held_out_floor
+    from jaxgwo._diagnose_which import score_candidate
+
+    s = DiagnoseSettings()
+    assert s.z_min < s.z_min_time and s.min_gap < 0.0
+    assert _held_out_floor(s, ("time_delay",), False, True) == (s.z_min, s.min_gap)
+    assert _held_out_floor(s, ("structural_mode",), False, True) == (s.z_min, 0.0)
+    assert _held_out_floor(s, ("rate_limit",), True, True) == (s.z_min_time, 0.0)
+    assert _held_out_floor(s, ("cross_coupling",), True, False) == (s.z_min, 0.0)
+    assert _held_out_floor(s, ("structural_mode",), True, True) == (s.z_min_time, 0.0)
+    assert _held_out_floor(s, ("structural_mode",), True, False, as_linear=True) == (s.z_min, s.min_gap)
+    # a refit predicting the held-out records a little worse than the nominal, a little
+    # better than the null refit (its baseline)
+    rng = np.random.default_rng(7)
+    dt = 0.02
+    t = np.arange(0.0, 24.0, dt)
+    y = np.sin(2.0 * np.pi * 0.5 * t)
+    err = rng.standard_normal(t.size)
+    nominal, null = y + 0.050 * err, y + 0.054 * err
+    cand = y + 0.0501 * err
+    r2_nom = 1.0 - np.sum((y - nominal) ** 2) / np.sum((y - y.mean()) ** 2)
+
+    def passes(z_min, min_gap):
+        return score_candidate(("structural_mode",), {}, {}, [cand], [y], [nominal], r2_nom, 1.0, 1.0, 500.0, 3, dt,
+                               dt, 0.0, baseline_predicted=[null], extra_train_p=1e-8, j_required=False,
+                               z_min=z_min, min_gap=min_gap)  # fmt: skip
+
+    sc = passes(*_held_out_floor(s, ("structural_mode",), True, False, as_linear=True))
+    assert sc.beats_noise and sc.z_score > s.z_min_time and s.min_gap < sc.gap_closed < 0.0
+    assert not passes(*_held_out_floor(s, ("structural_mode",), True, False)).beats_noise
+    assert not passes(*_held_out_floor(s, ("structural_mode",), True, True)).beats_noise
