@@ -35,10 +35,11 @@ SETTINGS = DiagnoseSettings(
 )  # fmt: skip
 
 
-def _case(effect=None, seed=0, plant_effects=None, **params):
+def _case(effect=None, seed=0, plant_effects=None, val_off_rms=0.02, **params):
     """TRAIN: two 0.3-10 Hz sweeps (amplitudes 0.05, 0.09) with off-axis pilot activity;
-    VAL: a 3-2-1-1 and a doublet; light gusts, 35 dB SNR.  Same shapes for every case.
-    ``plant_effects`` (an :class:`EffectSet`) is part of the plant, ``effect`` added to it."""
+    VAL: a 3-2-1-1 and a doublet (off-axis activity ``val_off_rms``); light gusts, 35 dB
+    SNR.  Same shapes for every case.  ``plant_effects`` (an :class:`EffectSet`) is part
+    of the plant, ``effect`` added to it."""
     k = jax.random.split(jax.random.key(seed), 5)
     n = int((3 + D + 2 + D + 2) * FS)
     t = jnp.arange(n, dtype=jnp.float64) / FS
@@ -53,7 +54,7 @@ def _case(effect=None, seed=0, plant_effects=None, **params):
     tv = jnp.arange(nv, dtype=jnp.float64) / FS
     lat = (multistep_3211(tv, amplitude=0.075, unit_s=0.3, start_s=1.0) + doublet(tv, amplitude=0.075, pulse_s=0.4, start_s=10.0)
            + pilot_corrections(k[2], nv, FS, rms=0.01))  # fmt: skip
-    va = simulate(PaperPlant.default(), jnp.stack([lat, pilot_corrections(k[3], nv, FS, rms=0.02)], 1), k[4],
+    va = simulate(PaperPlant.default(), jnp.stack([lat, pilot_corrections(k[3], nv, FS, rms=val_off_rms)], 1), k[4],
                   sample_rate_hz=FS, disturbance=dist, effects=eff)  # fmt: skip
     return [tr.to_record()], [va.to_record()]
 
@@ -1908,22 +1909,8 @@ def test_a_coupling_far_beyond_noise_on_the_paper_model_needs_the_held_out_recor
     ``z_min_time``, which refused it before); its gain, far beyond noise on the
     identification records, carries the verdict, and the summary says so.  Without the
     rule (``alpha_coupling_gain`` 0) this case answers ``none``: checked when it was set."""
-    k = jax.random.split(jax.random.key(4), 5)
-    n = int((3 + D + 2 + D + 2) * FS)
-    t = jnp.arange(n, dtype=jnp.float64) / FS
-    sw = frequency_sweep(t, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.05, start_s=3) + frequency_sweep(
-        t, f_start_hz=0.3, f_stop_hz=10, duration_s=D, amplitude=0.09, start_s=5 + D)
-    eff = EffectSet().with_effect("cross_coupling", gain=0.1)
-    dist = Disturbance(gust_rms=0.05, snr_db=35.0)
-    tr = simulate(PaperPlant.default(), jnp.stack([sw, pilot_corrections(k[0], n, FS, rms=0.02)], 1), k[1],
-                  sample_rate_hz=FS, disturbance=dist, effects=eff)  # fmt: skip
-    nv = 2000
-    tv = jnp.arange(nv, dtype=jnp.float64) / FS
-    lat = (multistep_3211(tv, amplitude=0.075, unit_s=0.3, start_s=1.0) + doublet(tv, amplitude=0.075, pulse_s=0.4, start_s=10.0)
-           + pilot_corrections(k[2], nv, FS, rms=0.01))  # fmt: skip
-    va = simulate(PaperPlant.default(), jnp.stack([lat, pilot_corrections(k[3], nv, FS, rms=0.002)], 1), k[4],
-                  sample_rate_hz=FS, disturbance=dist, effects=eff)  # fmt: skip
-    d = diagnose([tr.to_record()], [va.to_record()], "lateral", SETTINGS)
+    train, val = _case("cross_coupling", seed=4, val_off_rms=0.002, gain=0.1)
+    d = diagnose(train, val, "lateral", SETTINGS)
     assert d.verdict == "cross_coupling" and d.structure is None
     top = d.ranking[0]
     g, sg = top.params["cross_coupling"]["gain"], top.sigma["cross_coupling"]["gain"]
