@@ -1383,8 +1383,8 @@ def diagnose(
         """``predicted``: ``spec``'s held-out simulation where it is at hand already.
         ``veto=False``: the held-out records score the candidate but cannot refuse it.
         ``gap_against_baseline``: as :func:`score_candidate`'s.  ``as_linear``: the held-out
-        records need only not contradict it as they need not a linear ``J`` fit's
-        (``z_min``, ``min_gap``): a resonance two tests find (:func:`_same_resonance`)."""
+        records need only not contradict it, as for a linear ``J`` fit (``z_min``,
+        ``min_gap``; :func:`_held_out_floor`): a resonance two tests find."""
         pred = [simulate_model(spec, t, u, o) for t, u, o, _y in tv] if predicted is None else list(predicted)
         z_min, min_gap = _held_out_floor(settings, effects, time_domain, confirm, as_linear)
         ag = float(np.mean([_agreement(e, fm, amp, off_rt, params.get(e)) for e in effects]))
@@ -1518,7 +1518,7 @@ def diagnose(
                 # ranked on J's evidence where that is the larger: the gusts that dominate the
                 # output error leave a resonance a small share of it (seed-181 case_063: J
                 # 25.1 -> 4.3 at 8.53 Hz, the refit 0.06 per effective sample, behind a 58 ms
-                # flapping lag's J 26.7 -> 12.5)
+                # flapping lag's J 26.7 -> 12.5); the J fit's term as score_candidate forms it
                 ev = max(ev, -sc.delta_bic / max(m_eff, k + 7.0))
             sc_td = score(base, own, {e: tdf.params[e] for e in own}, {e: tdf.sigma[e] for e in own}, td_spec,
                           sim_J(td_spec), base.cost_J_sim, k, baseline=val_null, extra_p=p_td, j_required=False,
