@@ -65,6 +65,7 @@ from ._diagnose_which import (
     fit_linear_candidates,
     fit_nonlinear_candidates,
     held_out_fit,
+    j_evidence,
     j_f_test_p,
     j_worse_p,
     matched_filter_p,
@@ -1518,8 +1519,8 @@ def diagnose(
                 # ranked on J's evidence where that is the larger: the gusts that dominate the
                 # output error leave a resonance a small share of it (seed-181 case_063: J
                 # 25.1 -> 4.3 at 8.53 Hz, the refit 0.06 per effective sample, behind a 58 ms
-                # flapping lag's J 26.7 -> 12.5); the J fit's term as score_candidate forms it
-                ev = max(ev, -sc.delta_bic / max(m_eff, k + 7.0))
+                # flapping lag's J 26.7 -> 12.5)
+                ev = max(ev, j_evidence(sc.delta_bic, k, m_eff))
             sc_td = score(base, own, {e: tdf.params[e] for e in own}, {e: tdf.sigma[e] for e in own}, td_spec,
                           sim_J(td_spec), base.cost_J_sim, k, baseline=val_null, extra_p=p_td, j_required=False,
                           evidence=ev, time_domain=True, confirm=not agree, as_linear=agree)  # fmt: skip

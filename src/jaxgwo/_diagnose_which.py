@@ -93,6 +93,8 @@ __all__ = [
     "simulated_response_cost",
     "f_test_p",
     "j_f_test_p",
+    "j_points",
+    "j_evidence",
     "j_worse_p",
     "output_error_evidence",
 ]
@@ -1486,13 +1488,25 @@ def f_test_p(before: float, after: float, n_params: int, dof: float) -> float:
     return float(scipy.stats.f.sf(f, n_params, dof))
 
 
+def j_points(m_eff: float, n_params: int) -> float:
+    """The independent frequencies ``J``'s tests count for a model with ``n_params`` added
+    parameters: ``m_eff``, at least ``n_params + 7`` (the five paper parameters and the
+    added ones come off the residual's degrees of freedom)."""
+    return max(m_eff, n_params + 7.0)
+
+
+def j_evidence(delta_bic: float, n_params: int, m_eff: float) -> float:
+    """A candidate's ``J`` term in the ranking score of :func:`score_candidate`: its BIC
+    change on ``J`` per independent frequency (:func:`j_points`), positive where it helps."""
+    return -delta_bic / j_points(m_eff, n_params)
+
+
 def j_f_test_p(before: float, after: float, n_params: int, m_eff: float) -> float:
     """p-value of the F-test that ``n_params`` added parameters take ``J`` from ``before`` to
-    ``after`` on ``m_eff`` independent frequencies (at least ``n_params + 7``; the five
-    paper parameters and the added ones off the residual's degrees of freedom): the test of
+    ``after`` on ``m_eff`` independent frequencies (:func:`j_points`): the test of
     :func:`score_candidate`, of a nonlinear refit against the null refit
     (:func:`jaxgwo._diagnose.diagnose`) and, read the other way round, :func:`j_worse_p`."""
-    m = max(m_eff, n_params + 7.0)
+    m = j_points(m_eff, n_params)
     return f_test_p(before, after, n_params, m - 5 - n_params)
 
 
@@ -1586,7 +1600,7 @@ def score_candidate(
     dbic_val = n_eff * math.log(rss / rss0) + n_params * math.log(n_eff)
     block = max(int(round(max(4.0 * correlation_time_s, 0.5) / dt)), 1)
     z = _block_z((y - pb) ** 2 - (y - p) ** 2, block)
-    m = max(m_eff, n_params + 7.0)
+    m = j_points(m_eff, n_params)
     ratio = cost_J / nominal_J if nominal_J > 0 and math.isfinite(cost_J) else 1.0
     dbic = m * math.log(max(ratio, 1e-12)) + n_params * math.log(m)
     p_j = j_f_test_p(nominal_J, cost_J, n_params, m_eff)
@@ -1601,7 +1615,7 @@ def score_candidate(
 
         ok = bool(extra < held_out_alpha and z >= scipy.stats.norm.isf(alpha) and closes
                   and dbic_val <= -HELD_OUT_FIRST_BIC)
-    fit_term = -dbic / m if evidence is None else evidence
+    fit_term = j_evidence(dbic, n_params, m_eff) if evidence is None else evidence
     score = fit_term + val_weight * gap + 0.05 * agreement - (0.0 if ok else 10.0)
     return CandidateScore(effects, params, sigma, r2, tic, cost_J, nominal_J, gap, dbic, dbic_val, z, p_train, ok,
                           agreement, score, n_params, tuple(predicted))  # fmt: skip
