@@ -1051,6 +1051,11 @@ def test_time_delay_case_is_found_estimated_and_reported():
         held = dataclasses.replace(top, detail=top.detail | {"passed_on_held_out_records": flag})
         text = dataclasses.replace(d, ranking=(held, *d.ranking[1:])).summary()
         assert (f"The held-out records carry its evidence (z {top.z_score:.1f})" in text) == bool(flag)
+    # a nonlinearity ranked over an airframe pair (_nonlinearity_over_pair; made up here)
+    for over in ({}, {"J_over_pair_J": 0.34, "over_pair_freq_hz": 4.92}):
+        text = dataclasses.replace(d, ranking=(dataclasses.replace(top, detail=top.detail | over), *d.ranking[1:])).summary()
+        assert ("a broad pole pair near 4.92 Hz (real zeros) also beats noise" in text) == bool(over)
+        assert ("whose J is 0.34 times the pair's" in text) == bool(over)
 
 
 def _paper_lsim(params: dict, t, u):
@@ -1563,7 +1568,7 @@ def test_a_nonlinearity_that_fits_j_below_an_airframe_pair_is_ranked_over_it():
                _on_paper_model("time_delay", -10.1, 1.0, ok=False)]  # fmt: skip
     out = _nonlinearity_over_pair(ranking, 1.0)
     assert [c.effects[0] for c in out] == ["rate_limit", "structural_mode", "saturation", "backlash", "time_delay"]
-    assert out[0].detail["J_over_pair_J"] == pytest.approx(1.11 / 3.26)
+    assert out[0].detail["J_over_pair_J"] == pytest.approx(1.11 / 3.26) and out[0].detail["over_pair_freq_hz"] == 4.9
     assert all("J_over_pair_J" not in c.detail for c in out[1:])
     fits = {("structural_mode",): None, ("rate_limit",): None}
     assert _structure_route(ranking, fits, 1.0) == "mode" and _structure_route(out, fits, 1.0) is None

@@ -505,6 +505,13 @@ class Diagnosis:
                     f"records do not confirm it (z {top.z_score:.1f}), their off-axis stick being mostly the hold "
                     "loop's answer to the gusts. Multisteps on the off-axis cyclic would confirm it."
                 )
+            if "J_over_pair_J" in top.detail:
+                lines.append(
+                    f"On the paper model a broad pole pair near {top.detail['over_pair_freq_hz']:.3g} Hz (real zeros) "
+                    f"also beats noise, but it fits the measured response worse than this nonlinearity (whose J is "
+                    f"{top.detail['J_over_pair_J']:.2f} times the pair's): the pair imitated the nonlinearity's bend "
+                    "of the response, and is taken for no mode of the airframe."
+                )
             if top.detail.get("passed_on_held_out_records"):
                 lines.append(
                     f"The held-out records carry its evidence (z {top.z_score:.1f}); the identification records "
@@ -904,7 +911,8 @@ def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], structure_zeta_z:
     """``ranking`` (best first, on the paper model) with the nonlinearities that beat noise
     and fit ``J`` below an airframe pair at its head (:func:`_airframe_pair`) moved ahead
     of it, lowest ``J`` first (each one's ``detail`` records ``J_over_pair_J``, its ``J``
-    over the pair's); otherwise unchanged.  The pair is then no structure finding
+    over the pair's, and ``over_pair_freq_hz``, the pair's frequency; the summary says
+    so); otherwise unchanged.  The pair is then no structure finding
     (:func:`_structure_route` reads the head): a servo nonlinearity the paper model lacks
     bends its response, and a broad pole-zero pair imitates the bend on ``J`` less well than
     the nonlinearity itself does.
@@ -928,7 +936,8 @@ def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], structure_zeta_z:
                  and c.cost_J < pair.cost_J), key=lambda c: c.cost_J)  # fmt: skip
     if not nl:
         return ranking
-    moved = [dataclasses.replace(c, detail=dict(c.detail) | {"J_over_pair_J": c.cost_J / pair.cost_J}) for c in nl]
+    over = {"over_pair_freq_hz": pair.params["structural_mode"]["freq_hz"]}
+    moved = [dataclasses.replace(c, detail=dict(c.detail) | {"J_over_pair_J": c.cost_J / pair.cost_J} | over) for c in nl]
     return (*moved, *(c for c in ranking if not any(c is x for x in nl)))
 
 
