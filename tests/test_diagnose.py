@@ -1558,35 +1558,32 @@ def _on_paper_model(effect, score, cost_J, ok=True, **mode):
 
 def test_a_nonlinearity_that_fits_j_below_an_airframe_pair_is_ranked_over_it():
     """Seed-137 case_052's paper-model ranking (a paper rate limit taken for structure,
-    rediagnosed on 38ab7bd): the pair 4.9 Hz with real zeros at J 3.26, the rate limit at
-    1.11; and seed-137 case_008's (an R-50 ``none`` case): the airframe pair at 1.9 Hz,
-    J 4.81, a saturation beating noise at 133."""
-    from jaxgwo._diagnose import _nonlinearity_over_pair, _structure_route
+    rediagnosed on 38ab7bd): the vocabulary's mode at the head (29.96 Hz, real zeros, J
+    3.46), the pair the structure step takes from it at 4.9 Hz and J 3.26, the rate limit at
+    1.11; and seed-137 case_008's (an R-50 ``none`` case): the airframe pair at 1.9 Hz, J
+    4.81, a saturation beating noise at 133."""
+    from jaxgwo._diagnose import _nonlinearity_over_pair
 
-    ranking = [_on_paper_model("structural_mode", 0.416, 3.26), _on_paper_model("rate_limit", 0.375, 1.11),
-               _on_paper_model("saturation", -9.6, 6.56, ok=False), _on_paper_model("backlash", -9.6, 0.5, ok=False),
-               _on_paper_model("time_delay", -10.1, 1.0, ok=False)]  # fmt: skip
-    out = _nonlinearity_over_pair(ranking, 1.0)
+    ranking = [_on_paper_model("structural_mode", 0.399, 3.46, freq_hz=29.96, zeta_p=0.01, zeta_z=1.5),
+               _on_paper_model("rate_limit", 0.375, 1.11), _on_paper_model("saturation", -9.6, 6.56, ok=False),
+               _on_paper_model("backlash", -9.6, 0.5, ok=False), _on_paper_model("time_delay", -10.1, 1.0, ok=False)]  # fmt: skip
+    pair = _on_paper_model("structural_mode", 0.416, 3.26)
+    out = _nonlinearity_over_pair(ranking, pair)
     assert [c.effects[0] for c in out] == ["rate_limit", "structural_mode", "saturation", "backlash", "time_delay"]
     assert out[0].detail["J_over_pair_J"] == pytest.approx(1.11 / 3.26) and out[0].detail["over_pair_freq_hz"] == 4.9
     assert all("J_over_pair_J" not in c.detail for c in out[1:])
-    fits = {("structural_mode",): None, ("rate_limit",): None}
-    assert _structure_route(ranking, fits, 1.0) == "mode" and _structure_route(out, fits, 1.0) is None
     # two that beat noise below the pair: lowest J first
     two = [*ranking[:2], _on_paper_model("saturation", 0.2, 2.0)]
-    assert [c.effects[0] for c in _nonlinearity_over_pair(two, 1.0)] == ["rate_limit", "saturation", "structural_mode"]
+    assert [c.effects[0] for c in _nonlinearity_over_pair(two, pair)] == ["rate_limit", "saturation", "structural_mode"]
     # unchanged: a nonlinearity at or above the pair's J (the R-50 none case), one that does
-    # not beat noise, a linear effect below it, a resonance of the vocabulary at the head
-    # (zeros 0.3, 9 Hz: no airframe pair), a pair that does not beat noise, the structure
-    # step switched off
-    r50 = [_on_paper_model("structural_mode", 3.43, 4.81, freq_hz=1.9, zeta_p=0.2, zeta_z=0.84),
-           _on_paper_model("saturation", 0.176, 133.0)]  # fmt: skip
-    for kept in (r50, [ranking[0], _on_paper_model("rate_limit", 0.3, 3.26)], [ranking[0], ranking[2]],
-                 [ranking[0], _on_paper_model("time_delay", 0.3, 1.0)],
-                 [_on_paper_model("structural_mode", 0.4, 3.26, freq_hz=9.0, zeta_z=0.3), ranking[1]],
-                 [_on_paper_model("structural_mode", -9.0, 3.26, ok=False), ranking[1]]):  # fmt: skip
-        assert _nonlinearity_over_pair(kept, 1.0) == tuple(kept)
-    assert _nonlinearity_over_pair(ranking, math.inf) == tuple(ranking)
+    # not beat noise (however low its J), a linear effect below it, a pair whose J is not a number
+    r50_pair = _on_paper_model("structural_mode", 3.43, 4.81, freq_hz=1.9, zeta_p=0.2, zeta_z=0.84)
+    r50 = [r50_pair, _on_paper_model("saturation", 0.176, 133.0)]
+    assert _nonlinearity_over_pair(r50, r50_pair) == tuple(r50)
+    for kept in ([ranking[0], _on_paper_model("rate_limit", 0.3, 3.26)], [ranking[0], ranking[3]],
+                 [ranking[0], _on_paper_model("time_delay", 0.3, 1.0)]):  # fmt: skip
+        assert _nonlinearity_over_pair(kept, pair) == tuple(kept)
+    assert _nonlinearity_over_pair(ranking, dataclasses.replace(pair, cost_J=float("nan"))) == tuple(ranking)
 
 
 def test_structure_step_starts_only_from_a_frequency_domain_winner():

@@ -907,30 +907,26 @@ def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[C
     return (*moved, *(c for c in ranking if not any(c is x for x in lags)))
 
 
-def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], structure_zeta_z: float) -> tuple[CandidateScore, ...]:
+def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], pair: CandidateScore) -> tuple[CandidateScore, ...]:
     """``ranking`` (best first, on the paper model) with the nonlinearities that beat noise
-    and fit ``J`` below an airframe pair at its head (:func:`_airframe_pair`) moved ahead
-    of it, lowest ``J`` first (each one's ``detail`` records ``J_over_pair_J``, its ``J``
-    over the pair's, and ``over_pair_freq_hz``, the pair's frequency; the summary says
-    so); otherwise unchanged.  The pair is then no structure finding
-    (:func:`_structure_route` reads the head): a servo nonlinearity the paper model lacks
-    bends its response, and a broad pole-zero pair imitates the bend on ``J`` less well than
-    the nonlinearity itself does.
+    and fit ``J`` below ``pair`` moved to its head, lowest ``J`` first (each one's
+    ``detail`` records ``J_over_pair_J``, its ``J`` over the pair's, and
+    ``over_pair_freq_hz``, the pair's frequency; the summary says so); otherwise
+    unchanged.  ``pair`` is the airframe pair the structure step would take (its ``J`` fit
+    after the step's refits, :func:`diagnose`), which is then no structure finding: a servo
+    nonlinearity the paper model lacks bends its response, and a broad pole-zero pair
+    imitates the bend on ``J`` less well than the nonlinearity itself does.
 
     Paper-plant rate limits acting on 2-5 % of the identification records were taken for
     structure so, then refused on top of the pair, which had absorbed them (rediagnosed on
     38ab7bd): seed-137 case_052, a 4.9 Hz pair with real zeros at ``J`` 3.26 beside the rate
     limit at 1.11 (rate 4.85 for 4.96); 157/045, 5.81 and 2.22 (6.04 for 6.02); 167/013,
-    3.25 and 2.48 (5.00 for 4.44); 173/026, the rate limit at 0.35 times the pair's ``J``.
-    On the R-50 ``none`` cases, whose pair is the airframe's, a nonlinearity that beats
-    noise on the paper model bends round the missing pair and fits ``J`` 16-76 times the
-    pair's (137/008, 137/066, 157/049, 173/000, 173/048; on six more none beats noise).
-    Never with the structure step switched off (``structure_zeta_z = inf``)."""
+    3.25 and 2.48 (5.00 for 4.44).  On the R-50 ``none`` cases, whose pair is the
+    airframe's, a nonlinearity that beats noise on the paper model bends round the missing
+    pair and fits ``J`` 16-76 times the pair's (137/008, 137/066, 157/049, 173/000,
+    173/048; on six more none beats noise)."""
     ranking = tuple(ranking)
-    if not ranking or ranking[0].effects != ("structural_mode",) or not ranking[0].beats_noise:
-        return ranking
-    pair = ranking[0]
-    if not _airframe_pair(pair.params["structural_mode"], structure_zeta_z) or not pair.cost_J > 0.0:
+    if not pair.cost_J > 0.0:
         return ranking
     nl = sorted((c for c in ranking if len(c.effects) == 1 and c.effects[0] in NONLINEAR and c.beats_noise
                  and c.cost_J < pair.cost_J), key=lambda c: c.cost_J)  # fmt: skip
@@ -1754,7 +1750,6 @@ def diagnose(
                   r2_nom)  # fmt: skip
     scored, specs, fits, lin_from, output_error, refit = rank(base0, cands, k_lin, k_nl, 2, "which")
     ranking = _lag_over_delay(sorted(scored, key=_best_first), settings.lag_over_delay)
-    ranking = _nonlinearity_over_pair(ranking, settings.structure_zeta_z)
 
     # -- structure: an extra pole pair the paper model lacks is the airframe's, not an effect
     structure, paper_ranking = None, ()
@@ -1805,6 +1800,12 @@ def diagnose(
                     and _airframe_pair(f_b.params["structural_mode"], settings.structure_zeta_z)):
                 f_sm, sm_spec, structure = f_b, b_spec, b_sc
                 paper_ranking = tuple(sorted((b_sc, *paper_ranking[1:]), key=_best_first))
+        if structure is not None:
+            # a nonlinearity that fits J better than the pair the step would take is what the
+            # pair imitated: no structure, the nonlinearity first (_nonlinearity_over_pair)
+            over = _nonlinearity_over_pair(ranking, structure)
+            if over[0] is not ranking[0]:
+                ranking, structure, paper_ranking = over, None, ()
         obj_s, sv_s, prior = prep.objective, sign_vec, None
     elif route == "behind_delay":
         # A long delay takes the top place from the extra pole pair an airframe such as the
