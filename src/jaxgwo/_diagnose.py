@@ -921,7 +921,8 @@ def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], pair: CandidateSc
     structure so, then refused on top of the pair, which had absorbed them (rediagnosed on
     38ab7bd): seed-137 case_052, a 4.9 Hz pair with real zeros at ``J`` 3.26 beside the rate
     limit at 1.11 (rate 4.85 for 4.96); 157/045, 5.81 and 2.22 (6.04 for 6.02); 167/013,
-    3.25 and 2.48 (5.00 for 4.44).  On the R-50 ``none`` cases, whose pair is the
+    3.25 and 2.48 (5.00 for 4.44); 173/026, 4.0 Hz, 6.79 and 2.47 (2.41 for 2.52).  Each now
+    answers ``rate_limit``.  On the R-50 ``none`` cases, whose pair is the
     airframe's, a nonlinearity that beats noise on the paper model bends round the missing
     pair and fits ``J`` 16-76 times the pair's (137/008, 137/066, 157/049, 173/000,
     173/048; on six more none beats noise)."""
