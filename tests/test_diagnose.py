@@ -1505,6 +1505,7 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
                                       ({"lag_over_delay": -0.1}, "lag_over_delay must be a score margin >= 0"),
                                       ({"alpha_held_out_first": 1.0}, r"alpha_held_out_first must be a level in \[0, 1\)"),
                                       ({"alpha_coupling_gain": -1e-5}, r"alpha_coupling_gain must be a level in \[0, 1\)"),
+                                      ({"j_null_ratio": 0.0}, "j_null_ratio must be a positive J ratio"),
                                       ({"wolves": 3}, "wolves")])  # fmt: skip
 def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
     with pytest.raises(ValueError, match=what):
@@ -1584,6 +1585,24 @@ def test_a_nonlinearity_that_fits_j_below_an_airframe_pair_is_ranked_over_it():
                  [ranking[0], _on_paper_model("time_delay", 0.3, 1.0)]):  # fmt: skip
         assert _nonlinearity_over_pair(kept, pair) == tuple(kept)
     assert _nonlinearity_over_pair(ranking, dataclasses.replace(pair, cost_J=float("nan"))) == tuple(ranking)
+
+
+@pytest.mark.parametrize("p_mse, p_j_null, j, j_null, expected", [
+    (0.14, 6.5e-5, 2.18, 3.39, (False, 0.14)),  # seed-199 case_005: a resonance read as a rate limit
+    (0.15, 2.2e-4, 4.23, 6.12, (False, 0.15)),  # seed-199 case_040
+    (2.6e-3, 3e-9, 1.19, 33.3, (True, 3e-9)),  # a true rate limit the output error barely shows
+    (2.3e-56, 9.8e-5, 0.635, 1.0, (False, 2.3e-56)),  # a backlash passing on its output error
+    (0.5, 2e-3, 1.0, 5.0, (False, 2e-3)),  # sized, but the J test not at alpha: its p still counts
+    (1e-5, 1e-9, 2.0, 5.0, (True, 1e-9)),  # at the ratio: sized
+])  # fmt: skip
+def test_the_null_refits_j_counts_as_evidence_only_with_an_effect_size(p_mse, p_j_null, j, j_null, expected):
+    from jaxgwo._diagnose import _against_null_j
+
+    strong, p = _against_null_j(p_mse, p_j_null, j, j_null, 1e-3, 0.4)
+    assert strong == expected[0] and p == pytest.approx(expected[1], rel=1e-12)
+    # inf: the F-test alone, as before 0.4 was set
+    assert _against_null_j(p_mse, p_j_null, j, j_null, 1e-3, math.inf) == (p_j_null < 1e-3, min(p_mse, p_j_null))
+    assert DiagnoseSettings().j_null_ratio == 0.4
 
 
 def test_structure_step_starts_only_from_a_frequency_domain_winner():
