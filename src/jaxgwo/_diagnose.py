@@ -217,13 +217,13 @@ class DiagnoseSettings:
     ``alpha``, 328be67) counts as its identification evidence and effect size only where
     its ``J`` is at most this fraction of the null refit's.  The true paper rate limits
     that test was set on fitted 0.04-0.27 of it (session 40's rediagnoses; seed-181
-    case_011 1.19 against 33.3); on fresh seed 199 two paper resonances near the sweeps' top (case_005 and
-    case_040, 15.97 and 15.66 Hz) passed it as rate limits at 0.64 and 0.69 (and a
-    saturation at 0.49), with output-error p 0.13-0.15, and a paper rate limit as a
-    saturation at 0.61 (case_063, p 0.29), while its true nonlinear verdicts fitted
-    0.02-0.37, but for two backlashes at 0.47 and 0.64 that pass on their output error (p
-    3e-8, 2e-56).  Set on seed 199 (0.4), before seed 211 was looked at.  ``inf``: the
-    F-test alone, as before.
+    case_011 1.19 against 33.3; seed-191 case_070, 0.32).  On fresh seed 199 two paper
+    resonances near the sweeps' top (case_005 and case_040, 15.97 and 15.66 Hz) passed it
+    as rate limits at 0.64 and 0.69 (and a saturation at 0.49), with output-error p
+    0.13-0.15, and a paper rate limit as a saturation at 0.61 (case_063, p 0.29), while
+    the true nonlinear verdicts that passed it fitted 0.02-0.37, but for two backlashes at
+    0.47 and 0.64 that pass on their output error (p 3e-8, 2e-56).  Set on seed 199 (0.4),
+    before seed 211 was looked at.  ``inf``: the F-test alone, as before.
     ``nsigma``: the random-error multiple that flags a frequency band.
     ``structure_zeta_z``: when the top candidate is a ``structural_mode`` whose fitted zero
     damping exceeds it (its zeros are real for values above 1), the fit describes no lightly
