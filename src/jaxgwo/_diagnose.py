@@ -921,8 +921,15 @@ def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[C
             if len(c.effects) == 1 and c.effects[0] in _LAGS and c.beats_noise and top - c.score < margin]  # fmt: skip
     if not lags:
         return ranking
-    moved = [dataclasses.replace(c, detail=dict(c.detail) | {"ranked_over_delay_by": top - c.score}) for c in lags]
-    return (*moved, *(c for c in ranking if not any(c is x for x in lags)))
+    return _ahead(ranking, lags, lambda c: {"ranked_over_delay_by": top - c.score})
+
+
+def _ahead(ranking: tuple[CandidateScore, ...], chosen: Sequence[CandidateScore],
+           note: Callable[[CandidateScore], dict]) -> tuple[CandidateScore, ...]:
+    """``ranking`` with ``chosen`` (candidates of it, in their order) moved to its head,
+    each one's ``detail`` extended by ``note(c)``; the rest keep their order."""
+    moved = [dataclasses.replace(c, detail=dict(c.detail) | note(c)) for c in chosen]
+    return (*moved, *(c for c in ranking if not any(c is x for x in chosen)))
 
 
 def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], pair: CandidateScore) -> tuple[CandidateScore, ...]:
@@ -952,9 +959,8 @@ def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], pair: CandidateSc
                  and c.cost_J < pair.cost_J), key=lambda c: c.cost_J)  # fmt: skip
     if not nl:
         return ranking
-    over = {"over_pair_freq_hz": pair.params["structural_mode"]["freq_hz"]}
-    moved = [dataclasses.replace(c, detail=dict(c.detail) | {"J_over_pair_J": c.cost_J / pair.cost_J} | over) for c in nl]
-    return (*moved, *(c for c in ranking if not any(c is x for x in nl)))
+    f = pair.params["structural_mode"]["freq_hz"]
+    return _ahead(ranking, nl, lambda c: {"J_over_pair_J": c.cost_J / pair.cost_J, "over_pair_freq_hz": f})
 
 
 def _gyro_path(records: Sequence[FlightRecord], channel: str, pairs, sample_rate_hz: float, w: np.ndarray,
@@ -999,8 +1005,7 @@ def _gyro_path_order(ranking: Sequence[CandidateScore], gyro: GyroPath, alpha: f
     if _gyro_filter_held(gyro, alpha):
         if not c.beats_noise or i == 0:
             return ranking
-        moved = dataclasses.replace(c, detail=dict(c.detail) | {"ranked_by_gyro_path": 1.0})
-        return (moved, *ranking[:i], *ranking[i + 1 :])
+        return _ahead(ranking, [c], lambda _c: {"ranked_by_gyro_path": 1.0})
     if c.beats_noise and gyro.refutes(c.params["sensor_lag"]["cutoff_hz"], alpha):
         out = dataclasses.replace(c, beats_noise=False, score=c.score - 10.0,
                                   detail=dict(c.detail) | {"refuted_by_gyro_path": 1.0})  # fmt: skip
