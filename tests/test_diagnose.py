@@ -375,6 +375,8 @@ def test_a_resonance_taken_for_the_structure_pair_is_refitted_beside_the_flybar(
     assert _resonance_taken_for_structure({"freq_hz": 17.6, "zeta_p": 0.07, "zeta_z": 8.8})  # seed-149 case_004
     assert not _resonance_taken_for_structure({"freq_hz": 2.03, "zeta_p": 0.05, "zeta_z": 0.9})  # below the floor
     assert not _resonance_taken_for_structure({"freq_hz": 8.7, "zeta_p": 0.32, "zeta_z": 4.5})  # a lag's pressed pair
+    assert _resonance_taken_for_structure({"freq_hz": 14.45, "zeta_p": 0.134, "zeta_z": 6.89})  # seed-199 case_071
+    assert not _resonance_taken_for_structure({"freq_hz": 6.0, "zeta_p": 0.155, "zeta_z": 3.0})  # least pressed seen
     assert not _resonance_taken_for_structure(m)  # noise-free, the one pair fits poles 0.24: no trigger
 
 
