@@ -3,10 +3,13 @@
     python benchmarks/blind_pool.py W1 W2 ... [--out benchmarks/results/blind_pool.md]
 
 Each ``W`` is a workdir of ``benchmarks/blind_diagnosis.py`` that holds its key and its
-diagnoses (``key.json``, ``diagnoses.json``, ``draw.json``, the records).  Every draw is
-scored as that script scores it (:func:`blind_diagnosis.score`); nothing is diagnosed
-again, so each draw counts with the diagnoses stored in its workdir, made by whichever
-commit diagnosed it last (each draw's own report names it).  One draw of 64 effect cases
+diagnoses (``key.json``, ``diagnoses.json``, ``draw.json``, the records), or the markdown
+report that script wrote for one draw (``benchmarks/results/blind_diagnosis_seed*.md``).
+A workdir is scored as that script scores it (:func:`blind_diagnosis.score`); a report is
+read back from its case table (:func:`load_report`), so draws whose workdirs are gone
+still pool, from files kept in the repository.  Nothing is diagnosed again: each draw
+counts with the diagnoses stored in its workdir or report, made by whichever commit
+diagnosed it (each draw's own report names it).  One draw of 64 effect cases
 measures top-1 to about +-10 % (95 %); the pooled count, with its Wilson interval, says
 whether a target is met or missed beyond that draw-to-draw spread, and the tables below it
 say where the misses lie: by plant and effect, and whether the oracle found the effect
@@ -22,6 +25,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import sys
 from collections import Counter
 
@@ -65,12 +69,15 @@ def identifiable(row: dict) -> bool:
 
 def load_draws(workdirs, blind=None) -> list[dict]:
     """``[{"workdir", "seed", "attitude", "rows"}]``: each workdir's draw arguments and its
-    scored rows.  A workdir without ``diagnoses.json`` (simulated, never diagnosed) or with
+    scored rows (a ``.md`` path: a draw's report, :func:`load_report`).  A workdir without ``diagnoses.json`` (simulated, never diagnosed) or with
     cases the diagnoses lack is refused: a part-diagnosed draw would bias the pool toward
     its first cases."""
     blind = blind or _blind()
     draws = []
     for w in workdirs:
+        if os.path.isfile(w) and w.endswith(".md"):
+            draws.append(load_report(w, blind.ORACLE_Z))
+            continue
         missing = [f for f in ("key.json", "diagnoses.json", "draw.json") if not os.path.exists(os.path.join(w, f))]
         if missing:
             raise SystemExit(f"{w}: no {', '.join(missing)}; pass workdirs that blind_diagnosis.py simulated "
@@ -90,8 +97,73 @@ def load_draws(workdirs, blind=None) -> list[dict]:
     seeds = [d["seed"] for d in draws]
     dup = sorted({s for s in seeds if seeds.count(s) > 1 and s is not None})
     if dup:
-        raise SystemExit(f"seed(s) {dup} appear in more than one workdir: a draw counts once in a pool.")
+        raise SystemExit(f"seed(s) {dup} appear in more than one workdir or report: a draw counts once in a pool.")
     return draws
+
+
+_REPORT_COLUMNS = ("case", "plant", "truth", "verdict", "top-2", "second in ordering", "oracle z TRAIN, VAL")
+
+
+def _oracle_cell(text: str) -> tuple[tuple | None, tuple | None]:
+    """``((z_train, z_val) or None, (mode z_train, mode z_val) or None)`` from a report's
+    ``oracle z`` cell: ``-``, ``a, b`` or ``a, b (mode: c, d; floor: e, f)``."""
+    text = text.strip()
+    if text == "-":
+        return None, None
+    head, _, rest = text.partition("(")
+    z = tuple(float(v) for v in head.split(","))
+    mode = None
+    if rest.startswith("mode:"):
+        mode = tuple(float(v) for v in rest[len("mode:") :].split(";")[0].rstrip(")").split(","))
+    return z, mode
+
+
+def load_report(path: str, oracle_z: float) -> dict:
+    """One draw read back from the markdown report ``blind_diagnosis.py`` wrote for it
+    (``{"workdir": path, "seed", "attitude", "rows"}``, rows with the fields
+    :func:`pool_report` reads).  The report's case table gives the plant, truth, verdict,
+    top-2 and the second class of the ordering (``order2`` is the verdict and that class:
+    :func:`blind_diagnosis.class_order` puts the verdict first, ``none`` when nothing beats
+    noise); identifiable is read from the oracle z as printed, to 0.1 (above ``oracle_z``
+    on TRAIN and VAL, on an R-50 with the extra pole pair's), so a z within 0.05 of the
+    threshold may count otherwise than from the key.  Where the verdict is ``none`` although
+    a candidate further down beat noise (a rule put one that does not first), the ordering's
+    first class is that candidate, which the report does not print, and a report reads
+    ``none`` there.  Over the thirteen fresh draws 131-197 the two readings differ in four
+    of 832 rows: two printed z of 3.0 that are above 3 in the key (seed 149, cases 040 and
+    070), and two whole-ranking top-2 hits (733 from the workdirs, 731 from the reports);
+    top-1, top-2, false alarms and the plant counts agree.  A report whose table lacks
+    cases its headline counts (a ``--limit`` run) or these columns is refused."""
+    with open(path) as f:
+        lines = f.read().splitlines()
+    head = next((ln for ln in lines if re.match(r"^\d+ cases \(", ln)), None)
+    seed = re.search(r"\bseed (-?\d+)", head or "")
+    if head is None or seed is None:
+        raise SystemExit(f"{path}: no headline '<N> cases (...), seed <S>'; pass a report of blind_diagnosis.py.")
+    i = next((k for k, ln in enumerate(lines) if ln.startswith("| case |")), None)
+    cols = [c.strip() for c in lines[i].strip("|").split("|")] if i is not None else []
+    lacking = [c for c in _REPORT_COLUMNS if c not in cols]
+    if lacking:
+        raise SystemExit(f"{path}: its case table lacks the column(s) {lacking} (has {cols}); "
+                         "pass a report of blind_diagnosis.py from 2026-11 on.")  # fmt: skip
+    rows = []
+    for ln in lines[i + 2 :]:
+        if not ln.startswith("| case_"):
+            break
+        cell = dict(zip(cols, (c.strip() for c in ln.strip().strip("|").split("|")), strict=True))
+        z, mode = _oracle_cell(cell["oracle z TRAIN, VAL"])
+        truth, verdict, second = cell["truth"], cell["verdict"], cell["second in ordering"]
+        rows.append({"case": cell["case"], "plant": cell["plant"], "truth": truth, "verdict": verdict,
+                     "top1": verdict == truth, "top2": cell["top-2"] == "yes",
+                     "order2": [verdict] + ([] if second == "-" else [second]),
+                     "identifiable": truth == "none" or (z is not None and min(z) > oracle_z),
+                     "oracle_z_mode": mode, "identifiable_mode": mode is not None and min(mode) > oracle_z})  # fmt: skip
+    n = int(head.split()[0])
+    if len(rows) != n:
+        raise SystemExit(f"{path}: its case table holds {len(rows)} of the {n} cases its headline counts; "
+                         "pool only reports of whole draws.")  # fmt: skip
+    attitude = any("--attitude" in ln for ln in lines[: i])
+    return {"workdir": path, "seed": int(seed.group(1)), "attitude": attitude, "rows": rows}
 
 
 def _cell(hits: int, n: int) -> str:
@@ -115,7 +187,8 @@ def pool_report(draws: list[dict], argv: list[str]) -> str:
          f"`python benchmarks/blind_pool.py {' '.join(argv)}`", "",
          f"{len(draws)} draws, {len(rows)} cases ({len(eff)} with an effect, {len(nones)} without). Each draw is "
          "scored from the diagnoses stored in its workdir, so the draws may come from different commits (each "
-         "draw's own report names its commit). Percentages with their 95 % Wilson interval.", "",
+         "draw's own report names its commit); a draw given by its report is read from the report's case table. "
+         "Percentages with their 95 % Wilson interval.", "",
          "| seed | attitude | top-1 | top-2 | false alarms on none | top-1 paper | top-1 R-50 | top-1 identifiable |",
          "|---|---|---|---|---|---|---|---|"]
     for d in draws:
@@ -167,7 +240,8 @@ def pool_report(draws: list[dict], argv: list[str]) -> str:
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("workdirs", nargs="+", help="blind_diagnosis.py workdirs, each simulated and diagnosed")
+    ap.add_argument("workdirs", nargs="+",
+                    help="blind_diagnosis.py workdirs, each simulated and diagnosed, or the .md reports it wrote")
     ap.add_argument("--out", default=None, help="write the markdown here (default: print it)")
     args = ap.parse_args(argv)
     text = pool_report(load_draws(args.workdirs), argv)

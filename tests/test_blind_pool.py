@@ -97,3 +97,62 @@ def test_load_draws_refuses_a_part_diagnosed_draw_and_a_repeated_seed(pool, tmp_
     os.remove(os.path.join(never, "diagnoses.json"))  # simulated, never diagnosed
     with pytest.raises(SystemExit, match="w4: no diagnoses.json"):
         pool.load_draws([never], blind=_Scorer)
+
+
+def _full_row(case, truth, verdict, plant="paper", z=(8.0, 5.0), mode=None, second="none", top2=None):
+    """A row with every field blind_diagnosis.write_report prints."""
+    r50 = plant == "r50"
+    return {"case": case, "plant": plant, "truth": truth, "verdict": verdict, "top1": verdict == truth,
+            "top2": verdict == truth if top2 is None else top2, "order2": [verdict, second],
+            "oracle_z": (None, None) if truth == "none" else z,
+            "identifiable": truth == "none" or min(z) > 3.0, "oracle_z_mode": mode if r50 else None,
+            "identifiable_mode": bool(r50 and mode and min(mode) > 3.0), "floor_z": (20.0, 10.0) if r50 else None,
+            "observable": True, "param_error": None if truth == "none" else ("rel error (%)", 5.0),
+            "exercised": None, "snr_db": 30.0, "r2_nominal": 0.9, "r2_after": 0.95, "r2_true": 0.96,
+            "r2_refit": 0.95, "wall_s": 40.0, "structure_hz": 1.7 if r50 else None}  # fmt: skip
+
+
+def test_a_report_reads_back_as_the_rows_it_was_written_from(pool, tmp_path):
+    """blind_diagnosis.write_report's case table, read back by load_report, gives the rows
+    the pool counts: plant, truth, verdict, top-1, top-2, the ordering's first two classes
+    and the oracle's identifiability, the R-50's by its extra-pair oracle; a z printed as
+    3.0 (3.04 here) reads as not above the threshold.  A report cut short is refused."""
+    import types
+
+    import numpy as np
+
+    blind = pool._blind()
+    rows = [_full_row("case_000", "time_delay", "time_delay", second="rotor_flapping"),
+            _full_row("case_001", "rate_limit", "none", "r50", z=(40.0, 20.0), mode=(2.5, 6.0), second="rate_limit"),
+            _full_row("case_002", "structural_mode", "structural_mode", "r50", z=(40.0, 9.0), mode=(7.0, 4.0)),
+            _full_row("case_003", "none", "none", second="cross_coupling"),
+            _full_row("case_004", "saturation", "backlash", z=(3.04, 9.0), second="saturation", top2=True)]
+    classes = [r["truth"] for r in rows]
+    conf = np.zeros((len(blind.CLASSES), len(blind.CLASSES)), int)
+    args = types.SimpleNamespace(classes=",".join(classes), reuse=True, seed=5, cases_per_effect=1, r50_fraction=0.25,
+                                 attitude=True, resume=False, out=str(tmp_path), report_name="rt")  # fmt: skip
+    blind.write_report({"rows": rows, "confusion": conf}, args, str(tmp_path), 60.0)
+    path = str(tmp_path / "rt.md")
+    draw = pool.load_report(path, blind.ORACLE_Z)
+    assert (draw["seed"], draw["attitude"], len(draw["rows"])) == (5, True, 5)
+    for got, want in zip(draw["rows"], rows, strict=True):
+        for k in ("case", "plant", "truth", "verdict", "top1", "top2", "order2", "identifiable_mode"):
+            assert got[k] == want[k], (want["case"], k)
+        assert pool.identifiable(got) == (pool.identifiable(want) and want["case"] != "case_004"), want["case"]
+    text = open(path).read()
+    cut = tmp_path / "cut.md"
+    cut.write_text(text.replace(next(ln for ln in text.splitlines() if ln.startswith("| case_004")) + "\n", ""))
+    with pytest.raises(SystemExit, match="holds 4 of the 5 cases"):
+        pool.load_report(str(cut), blind.ORACLE_Z)
+    with pytest.raises(SystemExit, match="no headline"):
+        pool.load_report(_plain(tmp_path), 3.0)
+    again = tmp_path / "again.md"
+    again.write_text(text)
+    with pytest.raises(SystemExit, match=r"seed\(s\) \[5\] appear in more than one"):
+        pool.load_draws([path, str(again)], blind=blind)
+
+
+def _plain(tmp_path) -> str:
+    p = tmp_path / "plain.md"
+    p.write_text("# not a report\n")
+    return str(p)
