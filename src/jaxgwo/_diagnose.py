@@ -1246,7 +1246,8 @@ lag 0.054 (noise-free R-50, a factor 13)."""
 
 
 def _below_vocabulary(mode: Mapping[str, float]) -> bool:
-    """Whether a structure finding's pair lies below the vocabulary's 3 Hz floor (``_Z_LO``)."""
+    """Whether a structure finding's pair lies below the vocabulary's 3 Hz floor (``_Z_LO``),
+    or on it (within 0.1 % in frequency: a fit the box stopped there)."""
     return math.log(mode["freq_hz"]) < _Z_LO[3] + 1e-3
 
 
@@ -1296,7 +1297,7 @@ def _on_vocabulary_floor(mode: Mapping[str, float], structure_zeta_z: float) -> 
     ranked first and beating noise; no structure step, so the filter went on top of the
     paper model alone and predicted the held-out records worse than the nominal).  Never
     with the structure step switched off (``structure_zeta_z = inf``)."""
-    return not math.isinf(structure_zeta_z) and math.log(mode["freq_hz"]) <= _Z_LO[3] + 1e-3
+    return not math.isinf(structure_zeta_z) and _below_vocabulary(mode)
 
 
 def _structure_route(ranking: Sequence[CandidateScore], fits: dict, structure_zeta_z: float) -> str | None:
