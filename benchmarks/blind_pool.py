@@ -69,9 +69,9 @@ def identifiable(row: dict) -> bool:
 
 def load_draws(workdirs, blind=None) -> list[dict]:
     """``[{"workdir", "seed", "attitude", "rows"}]``: each workdir's draw arguments and its
-    scored rows (a ``.md`` path: a draw's report, :func:`load_report`).  A workdir without ``diagnoses.json`` (simulated, never diagnosed) or with
-    cases the diagnoses lack is refused: a part-diagnosed draw would bias the pool toward
-    its first cases."""
+    scored rows (a ``.md`` path: a draw's report, :func:`load_report`).  A workdir without
+    ``diagnoses.json`` (simulated, never diagnosed) or with cases the diagnoses lack is
+    refused: a part-diagnosed draw would bias the pool toward its first cases."""
     blind = blind or _blind()
     draws = []
     for w in workdirs:
@@ -150,8 +150,14 @@ def load_report(path: str, oracle_z: float) -> dict:
     for ln in lines[i + 2 :]:
         if not ln.startswith("| case_"):
             break
-        cell = dict(zip(cols, (c.strip() for c in ln.strip().strip("|").split("|")), strict=True))
-        z, mode = _oracle_cell(cell["oracle z TRAIN, VAL"])
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        try:
+            if len(cells) != len(cols):
+                raise ValueError(f"{len(cells)} cells for {len(cols)} columns")
+            cell = dict(zip(cols, cells, strict=True))
+            z, mode = _oracle_cell(cell["oracle z TRAIN, VAL"])
+        except ValueError as err:
+            raise SystemExit(f"{path}: cannot read the case row {ln!r} ({err}); was the table edited by hand?") from None
         truth, verdict, second = cell["truth"], cell["verdict"], cell["second in ordering"]
         rows.append({"case": cell["case"], "plant": cell["plant"], "truth": truth, "verdict": verdict,
                      "top1": verdict == truth, "top2": cell["top-2"] == "yes",
@@ -162,7 +168,8 @@ def load_report(path: str, oracle_z: float) -> dict:
     if len(rows) != n:
         raise SystemExit(f"{path}: its case table holds {len(rows)} of the {n} cases its headline counts; "
                          "pool only reports of whole draws.")  # fmt: skip
-    attitude = any("--attitude" in ln for ln in lines[: i])
+    # the draw's own command line (a hand note above it may name the flag in passing)
+    attitude = any(ln.startswith("`python benchmarks/blind_diagnosis.py") and "--attitude" in ln for ln in lines[:i])
     return {"workdir": path, "seed": int(seed.group(1)), "attitude": attitude, "rows": rows}
 
 

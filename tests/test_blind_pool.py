@@ -144,6 +144,11 @@ def test_a_report_reads_back_as_the_rows_it_was_written_from(pool, tmp_path):
     cut.write_text(text.replace(next(ln for ln in text.splitlines() if ln.startswith("| case_004")) + "\n", ""))
     with pytest.raises(SystemExit, match="holds 4 of the 5 cases"):
         pool.load_report(str(cut), blind.ORACLE_Z)
+    bad = tmp_path / "bad.md"
+    row = next(ln for ln in text.splitlines() if ln.startswith("| case_002"))
+    bad.write_text(text.replace(row, row.replace("40.0, 9.0 (mode", "40.0, nine (mode")))
+    with pytest.raises(SystemExit, match="cannot read the case row"):
+        pool.load_report(str(bad), blind.ORACLE_Z)
     with pytest.raises(SystemExit, match="no headline"):
         pool.load_report(_plain(tmp_path), 3.0)
     again = tmp_path / "again.md"
