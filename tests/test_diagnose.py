@@ -1507,6 +1507,7 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
                                       ({"lag_over_delay": -0.1}, "lag_over_delay must be a score margin >= 0"),
                                       ({"alpha_held_out_first": 1.0}, r"alpha_held_out_first must be a level in \[0, 1\)"),
                                       ({"alpha_coupling_gain": -1e-5}, r"alpha_coupling_gain must be a level in \[0, 1\)"),
+                                      ({"alpha_resonance": 1.5}, r"alpha_resonance must be a level in \[0, 1\)"),
                                       ({"j_null_ratio": 0.0}, "j_null_ratio must be a positive J ratio"),
                                       ({"wolves": 3}, "wolves")])  # fmt: skip
 def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
@@ -1964,6 +1965,37 @@ def test_a_resonance_j_does_not_find_on_its_own_needs_the_held_out_confirmation(
     assert _same_resonance(_mode_fit(9.71, 0.085, 0.171), td, 1e-3)
     assert not _same_resonance(_mode_fit(9.71, 0.085, 0.171, p=2e-3), td, 1e-3)  # J's F-test fails alpha
     assert not _same_resonance(_mode_fit(9.71, 0.085, 0.171, dbic=0.5), td, 1e-3)  # its BIC does not improve
+
+
+def test_a_resonance_far_beyond_noise_by_the_matched_filter_alone_needs_the_held_out_records_only_not_to_contradict_it():
+    """``alpha_resonance``: fresh seed 227's case_029 (a 10.42 Hz mode; the refit 10.51 Hz at
+    matched-filter z 5.34, ``J`` finding no resonance) was refused at held-out z 0.77 and gap
+    0.31 for want of confirmation; at this level it need only not be contradicted.  Seed
+    199's case_040 (z 4.64) still needs the confirmation, and so does a refit ``J`` agrees
+    with (its own route, the linear floor) or one that is no resonance of the vocabulary."""
+    import scipy.stats
+
+    from jaxgwo._diagnose import _held_out_floor, _matched_filter_alone
+    from jaxgwo._diagnose_which import matched_filter_p
+
+    s = DiagnoseSettings()
+    # the level in matched-filter z: z^2 against chi^2 with the mode's three parameters
+    z_level = math.sqrt(scipy.stats.chi2.isf(s.alpha_resonance, 3))
+    assert 5.0 < z_level < 5.2 and abs(matched_filter_p(z_level, 3) - s.alpha_resonance) < 1e-9
+    p029, p040 = matched_filter_p(5.34, 3), matched_filter_p(4.64, 3)
+    assert p029 < s.alpha_resonance < p040 < s.alpha
+    assert _matched_filter_alone(True, False, p029, s.alpha_resonance)
+    assert not _matched_filter_alone(True, False, p040, s.alpha_resonance)
+    assert not _matched_filter_alone(True, True, p029, s.alpha_resonance)  # J agrees: _same_resonance's route
+    assert not _matched_filter_alone(False, False, p029, s.alpha_resonance)  # no resonance: the F-test's evidence
+    assert not _matched_filter_alone(True, False, p029, 0.0)  # switched off
+    # case_029's held-out numbers pass the unconfirmed floor, not the confirming one
+    z_un, gap_un = _held_out_floor(s, ("structural_mode",), True, False)
+    z_co, gap_co = _held_out_floor(s, ("structural_mode",), True, True)
+    assert (z_un, gap_un) == (s.z_min, 0.0) and (z_co, gap_co) == (s.z_min_time, 0.0)
+    assert z_un < 0.77 <= z_co and 0.31 > gap_un
+    # seed-227 case_014 (z 5.25, gap -0.044): past the level, but a negative gap still refuses it
+    assert _matched_filter_alone(True, False, matched_filter_p(5.25, 3), s.alpha_resonance) and not -0.044 > gap_un
 
 
 def test_a_coupling_far_beyond_noise_on_the_paper_model_needs_the_held_out_records_only_not_to_contradict_it():
