@@ -1,22 +1,29 @@
 """The structure families of ``r50_structure_families.py`` on noisy blind-study cases.
 
-For each named case of a blind-study workdir (``benchmarks/blind_diagnosis.py
---simulate-only --workdir W``), the nominal paper model is identified on TRAIN as the
-diagnosis does, and then the paper model x a structure (``mode``: the structure step's
-wide-box mode; ``leadlag``: a first-order lead-lag) x each linear effect is refitted on
-the CIFER cost ``J`` of the TRAIN response (bounded ``scipy.optimize.least_squares`` from a
+For each case of a blind-study workdir (``benchmarks/blind_diagnosis.py --simulate-only
+--workdir W``; named, or without names every R-50 case of the chosen classes), the nominal
+paper model is identified on TRAIN as the diagnosis does, and then the paper model x a
+structure (``mode``: the structure step's wide-box mode; ``leadlag``: a first-order
+lead-lag; ``leadlag_mode``: that lead-lag times a mode held to 0.5-3 Hz, the family that
+fits the published R-50 to 0.78 deg noise-free) x each linear effect is refitted on the
+CIFER cost ``J`` of the TRAIN response (bounded ``scipy.optimize.least_squares`` from a
 grid of starts, JAX's Jacobian).  Prints ``J`` per pair and the fitted effect parameter,
-beside the key's truth.  A development probe: frequency domain only, no held-out scoring.
+beside the key's truth; ``--out`` writes the table as markdown.  A development probe:
+frequency domain only, no held-out scoring, no significance test.
 
-Usage: ``python benchmarks/r50_structure_noisy.py WORKDIR case_019 case_063 ...``
+Usage: ``python benchmarks/r50_structure_noisy.py WORKDIR [case_019 case_063 ...]
+[--classes none,rotor_flapping] [--effects none,rotor_flapping,time_delay]
+[--families mode,leadlag_mode] [--out FILE.md]``
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
 import sys
+import time
 
 import jax
 import jax.numpy as jnp
@@ -39,6 +46,10 @@ STRUCT = {
              [np.log([f, zp, zz]) for f in (3.5, 6, 10) for zp, zz in ((0.5, 1.5), (0.3, 3))]),
     "leadlag": (np.log([0.08, 0.08]), np.log([80.0, 80.0]), [np.log([a, b]) for a in (0.5, 1.1, 2) for b in (2, 4, 8)]),
 }  # fmt: skip
+# the lead-lag (zero, pole in Hz) times a low mode (Hz, pole damping, zero damping) in r50_structure_families.py's box
+STRUCT["leadlag_mode"] = (np.r_[STRUCT["leadlag"][0], np.log([0.5, 0.01, 0.01])],
+                          np.r_[STRUCT["leadlag"][1], np.log([3.0, 2.0, 10.0])],
+                          [np.r_[a, np.log([f, 0.3, 0.3])] for a in STRUCT["leadlag"][2] for f in (1.0, 2.0)])  # fmt: skip
 EFF_STARTS = {
     "none": [np.zeros(0)],
     "time_delay": [np.array([d]) for d in (0.005, 0.02, 0.05)],
@@ -63,6 +74,8 @@ def make(obj, sname, ename):
         else:
             jw = 1j * w
             h = h * (jw / (2 * jnp.pi * jnp.exp(s[0])) + 1) / (jw / (2 * jnp.pi * jnp.exp(s[1])) + 1)
+            if sname == "leadlag_mode":
+                h = h * structural_mode_response(w, jnp.exp(s[2]), jnp.exp(s[3]), jnp.exp(s[4]))
         if ename == "time_delay":
             h = h * time_delay_response(w, e[0])
         if ename == "sensor_lag":
@@ -99,30 +112,66 @@ def fit_j(obj, x_nom, sname, ename):
     return best
 
 
+_PARAM_TEXT = {"sensor_lag": lambda v: f"{math.exp(v[0]):.1f} Hz", "time_delay": lambda v: f"{1000 * v[0]:.1f} ms",
+               "rotor_flapping": lambda v: f"{1000 * v[0]:.1f} ms", "structural_mode": lambda v: f"{math.exp(v[0]):.1f} Hz"}
+_TRUTH_TEXT = {"sensor_lag": lambda p: f"{p['cutoff_hz']:.1f} Hz", "time_delay": lambda p: f"{1000 * p['delay_s']:.1f} ms",
+               "rotor_flapping": lambda p: f"{1000 * p['tau_f']:.1f} ms",
+               "structural_mode": lambda p: f"{p['freq_hz']:.1f} Hz"}  # fmt: skip
+
+
 def main() -> int:
-    if len(sys.argv) < 3:
-        raise SystemExit(__doc__)
-    wd, cases = sys.argv[1], sys.argv[2:]
-    with open(os.path.join(wd, "key.json")) as f:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("workdir")
+    ap.add_argument("cases", nargs="*", help="case names (default: every R-50 case of --classes)")
+    ap.add_argument("--classes", default="none,rotor_flapping", help="without case names: the R-50 cases of these")
+    ap.add_argument("--effects", default=",".join(EFF), help=f"comma-separated, of {', '.join(EFF)}")
+    ap.add_argument("--families", default=",".join(STRUCT), help=f"comma-separated, of {', '.join(STRUCT)}")
+    ap.add_argument("--out", default=None, help="write the table here (markdown)")
+    args = ap.parse_args()
+    effects = [e for e in args.effects.split(",") if e]
+    families = [f for f in args.families.split(",") if f]
+    bad = [e for e in effects if e not in EFF] + [f for f in families if f not in STRUCT]
+    if bad or "none" not in effects:
+        ap.error(f"unknown effect(s) or family(ies) {bad}, or 'none' missing from --effects; effects: "
+                 f"{', '.join(EFF)}; families: {', '.join(STRUCT)}")  # fmt: skip
+    with open(os.path.join(args.workdir, "key.json")) as f:
         key = json.load(f)
+    classes = set(args.classes.split(","))
+    cases = args.cases or [c for c, k in key.items() if k["plant"] == "r50" and k["effect"] in classes]
+    missing = [c for c in cases if c not in key]
+    if missing:
+        ap.error(f"no case(s) {missing} in {args.workdir}/key.json")
+    rows = []
+    t0 = time.perf_counter()
     for c in cases:
-        tr = [load_record(os.path.join(wd, c, "train.csv"))]
+        tr = [load_record(os.path.join(args.workdir, c, "train.csv"))]
         nominal = identify_channels({"lateral": tr}, IDS)["lateral"]
         prep = _prepare(tr, "lateral", IDS)
         x_nom = np.log(np.asarray(nominal.model.to_array(), float) * np.array([prep.sign, 1, 1, 1, 1]))
-        out = {(s, e): fit_j(prep.objective, x_nom, s, e) for s in STRUCT for e in EFF}
         truth = key[c]
-        line = f"{c} truth {truth['effect']} {json.dumps(truth['params'])} nominal J {float(nominal.cost_J):.2f}\n"
-        for sname in STRUCT:
+        t_text = _TRUTH_TEXT[truth["effect"]](truth["params"]) if truth["effect"] in _TRUTH_TEXT else ""
+        for sname in families:
             ns = STRUCT[sname][0].size
-            line += f"   {sname:8s}: " + "  ".join(f"{e[:6]} {out[(sname, e)][0]:7.2f}" for e in EFF) + "\n"
-            for e in ("sensor_lag", "time_delay", "rotor_flapping", "structural_mode"):
-                ev = out[(sname, e)][1][5 + ns :]
-                val = {"sensor_lag": f"{math.exp(ev[0]):.1f}Hz", "time_delay": f"{1000 * ev[0]:.1f}ms",
-                       "rotor_flapping": f"{ev[0]:.4f}s", "structural_mode": f"{math.exp(ev[0]):.1f}Hz"}[e]  # fmt: skip
-                line += f"      {e} {val};"
-            line += f"  struct {np.round(np.exp(out[(sname, 'none')][1][5 : 5 + ns]), 3)}\n"
-        print(line, flush=True)
+            fits = {e: fit_j(prep.objective, x_nom, sname, e) for e in effects}
+            cells = []
+            for e in effects:
+                j, x = fits[e]
+                cells.append(f"{j:.2f}" + (f" ({_PARAM_TEXT[e](x[5 + ns :])})" if e != "none" else ""))
+            rows.append((c, truth["effect"], t_text, float(nominal.cost_J), sname, cells))
+            print(c, truth["effect"], t_text, sname, " ".join(f"{e}: {x}" for e, x in zip(effects, cells)), flush=True)
+    if args.out:
+        lines = ["# R-50 structure families on noisy blind-study cases", "",
+                 f"`python benchmarks/r50_structure_noisy.py {' '.join(sys.argv[1:])}` "
+                 f"({(time.perf_counter() - t0) / 60:.1f} min).", "",
+                 "`J` on TRAIN (the blind study's 80 analysis frequencies) of the paper model x each structure family "
+                 "alone (`none`) and x each effect, its fitted parameter in brackets. Frequency domain only: no "
+                 "held-out scoring and no significance test.", "",
+                 "| case | truth | true value | nominal J | family | " + " | ".join(effects) + " |",
+                 "|---|---|---|---|---|" + "---|" * len(effects)]  # fmt: skip
+        lines += [f"| {c} | {t} | {tv} | {jn:.2f} | {f} | " + " | ".join(cells) + " |" for c, t, tv, jn, f, cells in rows]
+        from jaxgwo._atomic import atomic_write_text
+
+        atomic_write_text(args.out, "\n".join(lines) + "\n")
     return 0
 
 
