@@ -50,6 +50,12 @@ F_HI_HZ = (12.0, 25.0)  # top frequency of the TRAIN sweeps: through the servo b
 ORACLE_Z = 3.0  # an effect case is "identifiable" when what no paper model absorbs stands out by this on TRAIN and VAL
 
 
+def oracle_identifies(z) -> bool:
+    """Whether an oracle's ``(z_train, z_val)`` both exceed :data:`ORACLE_Z`; false where
+    there is no such oracle (``None``, or either z missing)."""
+    return z is not None and None not in z and min(z) > ORACLE_Z
+
+
 def _excitation(rng, key, n_train, n_val):
     """TRAIN and VAL cyclic excitations ``(n, 2)`` (lateral on-axis, longitudinal off-axis)."""
     import jax
@@ -428,13 +434,13 @@ def score(workdir: str, results: dict) -> dict:
         elif truth in ("saturation", "rate_limit"):
             observable = (k.get("exercised_fraction") or 0.0) > 0.0
         zt, zv = k.get("oracle_z_train"), k.get("oracle_z_val")
-        identifiable = truth == "none" or (zt is not None and zv is not None and min(zt, zv) > ORACLE_Z)
+        identifiable = truth == "none" or oracle_identifies((zt, zv))
         zm = (k.get("oracle_z_train_mode"), k.get("oracle_z_val_mode"))
         zm = zm if None not in zm else None
         zf = (k.get("floor_z_train_mode"), k.get("floor_z_val_mode"))
         rows.append({"identifiable": identifiable, "oracle_z": (zt, zv), "oracle_z_mode": zm,
                      "floor_z": zf if None not in zf else None,
-                     "identifiable_mode": zm is not None and min(zm) > ORACLE_Z, "observable": observable, "case": name, "truth": truth, "verdict": verdict, "top1": verdict == truth, "top2": bool(top2), "order2": order[:2],
+                     "identifiable_mode": oracle_identifies(zm), "observable": observable, "case": name, "truth": truth, "verdict": verdict, "top1": verdict == truth, "top2": bool(top2), "order2": order[:2],
                      "r2_nominal": r2_nom, "r2_after": r2_top, "r2_true": r2_true, "r2_refit": r2_refit,
                      "param_error": perr,
                      "exercised": k.get("exercised_fraction"), "plant": k["plant"], "snr_db": k["snr_db"],

@@ -76,7 +76,7 @@ def load_draws(workdirs, blind=None) -> list[dict]:
     draws = []
     for w in workdirs:
         if os.path.isfile(w) and w.endswith(".md"):
-            draws.append(load_report(w, blind.ORACLE_Z))
+            draws.append(load_report(w, blind))
             continue
         missing = [f for f in ("key.json", "diagnoses.json", "draw.json") if not os.path.exists(os.path.join(w, f))]
         if missing:
@@ -118,14 +118,14 @@ def _oracle_cell(text: str) -> tuple[tuple | None, tuple | None]:
     return z, mode
 
 
-def load_report(path: str, oracle_z: float) -> dict:
+def load_report(path: str, blind=None) -> dict:
     """One draw read back from the markdown report ``blind_diagnosis.py`` wrote for it
     (``{"workdir": path, "seed", "attitude", "rows"}``, rows with the fields
     :func:`pool_report` reads).  The report's case table gives the plant, truth, verdict,
     top-2 and the second class of the ordering (``order2`` is the verdict and that class:
     :func:`blind_diagnosis.class_order` puts the verdict first, ``none`` when nothing beats
-    noise); identifiable is read from the oracle z as printed, to 0.1 (above ``oracle_z``
-    on TRAIN and VAL, on an R-50 with the extra pole pair's), so a z within 0.05 of the
+    noise); identifiable is read from the oracle z as printed, to 0.1
+    (:func:`blind_diagnosis.oracle_identifies`, on an R-50 with the extra pole pair's), so a z within 0.05 of the
     threshold may count otherwise than from the key.  Where the verdict is ``none`` although
     a candidate further down beat noise (a rule put one that does not first), the ordering's
     first class is that candidate, which the report does not print, and a report reads
@@ -134,6 +134,7 @@ def load_report(path: str, oracle_z: float) -> dict:
     070), and two whole-ranking top-2 hits (733 from the workdirs, 731 from the reports);
     top-1, top-2, false alarms and the plant counts agree.  A report whose table lacks
     cases its headline counts (a ``--limit`` run) or these columns is refused."""
+    blind = blind or _blind()
     with open(path) as f:
         lines = f.read().splitlines()
     head = next((ln for ln in lines if re.match(r"^\d+ cases \(", ln)), None)
@@ -162,8 +163,8 @@ def load_report(path: str, oracle_z: float) -> dict:
         rows.append({"case": cell["case"], "plant": cell["plant"], "truth": truth, "verdict": verdict,
                      "top1": verdict == truth, "top2": cell["top-2"] == "yes",
                      "order2": [verdict] + ([] if second == "-" else [second]),
-                     "identifiable": truth == "none" or (z is not None and min(z) > oracle_z),
-                     "oracle_z_mode": mode, "identifiable_mode": mode is not None and min(mode) > oracle_z})  # fmt: skip
+                     "identifiable": truth == "none" or blind.oracle_identifies(z),
+                     "oracle_z_mode": mode, "identifiable_mode": blind.oracle_identifies(mode)})  # fmt: skip
     n = int(head.split()[0])
     if len(rows) != n:
         raise SystemExit(f"{path}: its case table holds {len(rows)} of the {n} cases its headline counts; "

@@ -133,7 +133,7 @@ def test_a_report_reads_back_as_the_rows_it_was_written_from(pool, tmp_path):
                                  attitude=True, resume=False, out=str(tmp_path), report_name="rt")  # fmt: skip
     blind.write_report({"rows": rows, "confusion": conf}, args, str(tmp_path), 60.0)
     path = str(tmp_path / "rt.md")
-    draw = pool.load_report(path, blind.ORACLE_Z)
+    draw = pool.load_report(path, blind)
     assert (draw["seed"], draw["attitude"], len(draw["rows"])) == (5, True, 5)
     for got, want in zip(draw["rows"], rows, strict=True):
         for k in ("case", "plant", "truth", "verdict", "top1", "top2", "order2", "identifiable_mode"):
@@ -143,14 +143,14 @@ def test_a_report_reads_back_as_the_rows_it_was_written_from(pool, tmp_path):
     cut = tmp_path / "cut.md"
     cut.write_text(text.replace(next(ln for ln in text.splitlines() if ln.startswith("| case_004")) + "\n", ""))
     with pytest.raises(SystemExit, match="holds 4 of the 5 cases"):
-        pool.load_report(str(cut), blind.ORACLE_Z)
+        pool.load_report(str(cut), blind)
     bad = tmp_path / "bad.md"
     row = next(ln for ln in text.splitlines() if ln.startswith("| case_002"))
     bad.write_text(text.replace(row, row.replace("40.0, 9.0 (mode", "40.0, nine (mode")))
     with pytest.raises(SystemExit, match="cannot read the case row"):
-        pool.load_report(str(bad), blind.ORACLE_Z)
+        pool.load_report(str(bad), blind)
     with pytest.raises(SystemExit, match="no headline"):
-        pool.load_report(_plain(tmp_path), 3.0)
+        pool.load_report(_plain(tmp_path), blind)
     again = tmp_path / "again.md"
     again.write_text(text)
     with pytest.raises(SystemExit, match=r"seed\(s\) \[5\] appear in more than one"):

@@ -1205,7 +1205,8 @@ def _output_error_estimate(sc: CandidateScore, refit: tuple | None) -> Candidate
     of fresh seeds 199, 211, 223 and 227 the refit is reported on 12 (where it predicts
     those records better by 0.001 or more); the largest error falls from 5.6 to 2.2 ms,
     and every delay is then within 3 ms (23 of 24 on ``J`` alone); on four of the 12 the
-    refit is the further off (0.3 -> 0.4, 0.9 -> 2.2, 0.8 -> 1.3, 1.2 -> 2.2 ms).  Only against the paper model: on
+    refit is the further off (0.3 -> 0.4, 0.9 -> 2.2, 0.8 -> 1.3, 1.2 -> 2.2 ms).
+    Only against the paper model: on
     top of a structure finding the refit holds the mode where ``J`` put it (R-50 delays
     refitted there read 70-100 % low on the stored rankings of development seeds 41 and
     43).  Not where the refit stops where its search box makes an effect vanish (a cutoff
