@@ -624,6 +624,43 @@ def test_rate_limit_refit_escapes_the_damping_the_nominal_absorbed_it_into(seed)
     assert null.train_mse > 1.05 * fit.train_mse
 
 
+def test_nonstiff_servo_keeps_the_slow_pole_and_moves_the_fast_one_to_the_rk4_step():
+    """The analytic poles of the servo before and after: an overdamped servo's slow pole is
+    kept and its fast pole put at 1/h; servos RK4 integrates already come back unchanged."""
+    from jaxgwo._diagnose_which import _nonstiff_servo
+
+    h = 0.0025
+    w, z = _nonstiff_servo(2000.0, 64.0, h)  # seed-223 case_059's nominal servo
+    before = np.sort(np.abs(np.roots([1.0, 2 * 64.0 * 2000.0, 2000.0**2])))
+    after = np.sort(np.abs(np.roots([1.0, 2 * z * w, w * w])))
+    assert after[0] == pytest.approx(before[0], rel=1e-9)  # the pole the records see
+    assert after[1] == pytest.approx(1.0 / h, rel=1e-9)
+    assert _nonstiff_servo(50.0, 0.5, h) == (50.0, 0.5)
+    assert _nonstiff_servo(100.0, 1.5, h) == (100.0, 1.5)  # fast pole 262 1/s < 400
+    assert _nonstiff_servo(900.0, 0.3, h) == (400.0, 0.3)
+    assert _nonstiff_servo(1e6, 2.0, h) == (400.0, 1.0)  # both poles beyond 1/h
+
+
+def test_rate_limit_refit_from_a_stiff_overdamped_nominal_servo():
+    """A nominal fit can absorb a rate limit into a heavily overdamped servo (seed-223
+    case_059: 2000 rad/s at damping 64, one pole at 15.7 1/s and one at 2.6e5).  The null
+    refit started there simulated NaN (RK4 diverges on the fast pole), so every
+    candidate's evidence against it was NaN and the blind case answered ``none``.  From
+    that servo the null's error must be finite and the rate found."""
+    from jaxgwo._diagnose import _time_pairs
+    from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
+
+    train, _val = _case("rate_limit", seed=4, rate=1.8)
+    tt = _time_pairs(train, "lateral", SETTINGS.identify)
+    stiff = np.array(MODEL.to_array(), float)
+    stiff[3:] = 2000.0, 64.0
+    fit, null = fit_nonlinear_candidates(ModelSpec(stiff), tt, ["rate_limit"], key=jax.random.key(0),
+                                         wolves=12, iterations=15, include_null=True)  # fmt: skip
+    assert math.isfinite(null.train_mse)
+    assert abs(fit.params["rate_limit"]["rate"] / 1.8 - 1.0) < 0.1
+    assert null.train_mse > 1.05 * fit.train_mse
+
+
 @pytest.mark.parametrize("effect, value", [("null", 1.0), ("rate_limit", 0.5), ("saturation", 0.6)])
 def test_nonlinear_error_gradient_matches_forward_mode(effect, value):
     """The polish's batched central-difference gradient against jax.jacfwd through the
@@ -1890,6 +1927,11 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
         assert sc.gap_closed < 0.0 and sc.beats_noise == against
         assert not scored(y + 0.25 * err, against).beats_noise  # worse than the refit too
         assert scored(y + 0.05 * err, against).beats_noise  # better than both
+    # evidence that is not a number (a diverged null refit) beats nothing, however good the fit
+    nan_evidence = score_candidate(("rate_limit",), {}, {}, [y + 0.05 * err], [y], [nominal], r2(nominal), 1.0, 1.0,
+                                   500.0, 1, 0.02, 0.02, 0.0, extra_train_p=1e-12, j_required=False, z_min=1.0,
+                                   min_gap=0.0, evidence=math.nan)  # fmt: skip
+    assert not nan_evidence.beats_noise and math.isnan(nan_evidence.score)
 
 
 def test_a_cross_coupling_may_pass_on_the_held_out_records_first():

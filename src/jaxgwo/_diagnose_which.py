@@ -505,8 +505,12 @@ class _ServoParams(eqx.Module):
     width: Float[Array, ""]
 
 
+_SERVO_SUBSTEPS = 4
+"""RK4 steps per sample of :func:`_nonlinear_servo` (its default)."""
+
+
 @eqx.filter_jit
-def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substeps: int = 4,
+def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substeps: int = _SERVO_SUBSTEPS,
                      one: bool = False) -> Float[Array, " n"]:
     """Swashplate position mid-way through each sample interval of a second-order servo with
     rate limit, saturation and backlash (the simulator's rules, :mod:`jaxgwo._simulate`), driven
@@ -1097,6 +1101,7 @@ def fit_nonlinear_candidates(
     objs = nonlinear_objectives(base, train, names + ["null"])  # the null last, whether returned or not
     null_obj = objs[-1]
     _k, tau, m, ws, zs = (abs(float(v)) for v in base.params)
+    ws, zs = _nonstiff_servo(ws, zs, null_obj.dt / _SERVO_SUBSTEPS)
     zc = min(max(zs, 0.1), 1.5)
     paper = np.log([ws, zs, tau, m])
     # the nominal servo damping can absorb a strong rate limit (0.49 -> 1.17 seen): its
@@ -1250,6 +1255,33 @@ def _rate_profile(null_obj: NonlinearOutputError, x_null: np.ndarray, box: tuple
         return np.linspace(box[0], box[1], points)
     q = np.quantile(rate, 1.0 - np.geomspace(*_RATE_FRACTIONS, points))
     return np.sort(np.clip(np.log(q), box[0], box[1]))
+
+
+def _nonstiff_servo(omega: float, zeta: float, h: float) -> tuple[float, float]:
+    r"""A servo :math:`\omega^2/(s^2 + 2\zeta\omega s + \omega^2)` the nonlinear refit's RK4
+    step ``h`` can integrate, equivalent to ``(omega, zeta)`` where the records see it.
+
+    A frequency-domain nominal fit can absorb a rate limit into a heavily overdamped servo:
+    one slow real pole and one far beyond the sampling rate (seed-223 case_059, a paper
+    rate limit: 2000 rad/s at damping 64, poles at 15.7 and 2.6e5 1/s; seed-229 case_050,
+    an R-50 rate limit on top of its structure finding: 592 rad/s at 12).  RK4 diverges
+    for a real pole beyond :math:`2.79/h`, so the null refit started there simulated NaN
+    everywhere in its box, its error stayed NaN, and the candidates' evidence against it
+    with it (both cases answered ``none``).  Here a fast pole beyond :math:`1/h` is moved to
+    :math:`1/h` with the slow pole kept (a lag of at most ``h`` more, which the refit's
+    polish then frees), and an underdamped or critically damped servo faster than
+    :math:`1/h` is slowed to it; any other servo is returned unchanged."""
+    fast_max = 1.0 / h
+    if zeta > 1.0:
+        root = math.sqrt(zeta * zeta - 1.0)
+        fast, slow = omega * (zeta + root), omega / (zeta + root)  # slow = omega^2 / fast
+        if fast <= fast_max:
+            return omega, zeta
+        if slow >= fast_max:
+            return fast_max, 1.0
+        w = math.sqrt(slow * fast_max)
+        return w, (slow + fast_max) / (2.0 * w)
+    return min(omega, fast_max), zeta
 
 
 def _servo_ladder(log_omega: float, log_zeta_lo: float, log_zeta_hi: float, wolves: int) -> np.ndarray:
@@ -1587,7 +1619,8 @@ def score_candidate(
     minus 10 when the candidate does not beat noise; ``evidence`` replaces the first
     term where ``J`` cannot see the effect (the nonlinear candidates, whose describing
     function the nominal fit has absorbed: their BIC per effective sample of the
-    identification output error against the null time-domain refit).
+    identification output error against the null time-domain refit).  A candidate whose
+    evidence is not a number never beats noise.
     """
     if not math.isfinite(correlation_time_s):
         correlation_time_s = dt
@@ -1616,6 +1649,11 @@ def score_candidate(
         ok = bool(extra < held_out_alpha and z >= scipy.stats.norm.isf(alpha) and closes
                   and dbic_val <= -HELD_OUT_FIRST_BIC)
     fit_term = j_evidence(dbic, n_params, m_eff) if evidence is None else evidence
+    # a candidate whose evidence is not a number cannot be ranked (its score sorts last),
+    # so it does not beat noise either: seed-229 case_050's rate limit passed on J while its
+    # output-error evidence was NaN (a null refit that had diverged), and sat last in a
+    # ranking whose verdict was `none`
+    ok = ok and math.isfinite(fit_term)
     score = fit_term + val_weight * gap + 0.05 * agreement - (0.0 if ok else 10.0)
     return CandidateScore(effects, params, sigma, r2, tic, cost_J, nominal_J, gap, dbic, dbic_val, z, p_train, ok,
                           agreement, score, n_params, tuple(predicted))  # fmt: skip
