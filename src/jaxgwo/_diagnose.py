@@ -125,7 +125,7 @@ SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the d
 
 @dataclass(frozen=True)
 class DiagnoseSettings:
-    """What shapes a diagnosis.
+    r"""What shapes a diagnosis.
 
     The defaults are the configuration the blind study validates and its thresholds were
     set on (``benchmarks/blind_diagnosis.py`` without ``--quick`` runs ``DiagnoseSettings()``;
