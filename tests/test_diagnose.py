@@ -624,6 +624,33 @@ def test_rate_limit_refit_escapes_the_damping_the_nominal_absorbed_it_into(seed)
     assert null.train_mse > 1.05 * fit.train_mse
 
 
+def test_residual_correlation_inflation_against_the_ar1_variance_factor():
+    """(1 + rho)/(1 - rho) for an AR(1) residual (analytic), about 1 for white residuals,
+    1 for anti-correlated ones (clipped), masked frequencies skipped, and the magnitude and
+    phase rows pooled but never chained into one another."""
+    from jaxgwo._diagnose_which import residual_correlation_inflation
+
+    rng = np.random.default_rng(11)
+    n, rho = 20000, 0.8
+    e = rng.standard_normal((2, n))
+    ar = np.zeros((2, n))
+    for k in range(1, n):
+        ar[:, k] = rho * ar[:, k - 1] + e[:, k]
+    on = np.ones(n, bool)
+    assert residual_correlation_inflation(ar.ravel(), on) == pytest.approx((1 + rho) / (1 - rho), rel=0.1)
+    assert residual_correlation_inflation(e.ravel(), on) == pytest.approx(1.0, abs=0.05)
+    alternating = np.tile([1.0, -1.0], n)  # rho = -1
+    assert residual_correlation_inflation(alternating, on) == 1.0
+    # a masked point between two runs of the same sign is skipped, not read as a zero
+    steps = np.r_[np.ones(5), 0.0, np.ones(5), -np.ones(5), 0.0, -np.ones(5)]
+    mask = np.ones(11, bool)
+    mask[5] = False
+    r = np.r_[steps[:11], steps[11:]]
+    plain = r.reshape(2, -1)[:, mask]
+    rho_ref = np.sum(plain[:, :-1] * plain[:, 1:]) / np.sum(plain**2)  # 18/20: no chaining across rows
+    assert residual_correlation_inflation(r, mask) == pytest.approx((1 + rho_ref) / (1 - rho_ref), rel=1e-12)
+
+
 def test_nonstiff_servo_keeps_the_slow_pole_and_moves_the_fast_one_to_the_rk4_step():
     """The analytic poles of the servo before and after: an overdamped servo's slow pole is
     kept and its fast pole put at 1/h; servos RK4 integrates already come back unchanged."""
@@ -1058,7 +1085,7 @@ def test_time_delay_case_is_found_estimated_and_reported():
     # the summary quotes the delay and its (often sub-millisecond) bound to 0.1 ms
     ms, sig_ms = 1e3 * top.params["time_delay"]["delay_s"], 1e3 * top.sigma["time_delay"]["delay_s"]
     assert f"time_delay = {ms:.1f} ms (+-{sig_ms:.1f})" in d.summary()
-    assert "counts random error only" not in d.summary()  # no structure finding: the model form is the plant's
+    assert "model-form bias" not in d.summary()  # no structure finding: the model form is the plant's
     _check_json_report_schema(d)
     # the summary sets the null refit (no effect) beside the verdict's model: below it, level
     # with it to the 3 quoted decimals, above it
@@ -1250,7 +1277,7 @@ def test_structure_hidden_behind_a_long_delay_is_found():
     assert doc["structure"]["detail"]["found_behind_time_delay"] == 1.0
     assert "shows only on top of a time delay" in d.summary()
     assert f"With the extra pole pair + time_delay: R^2 {d.combined.val_r2:.3f}" in d.summary()  # not "structural_mode + "
-    assert "counts random error only" in d.summary()  # the bound ignores the extra mode's model-form error
+    assert "model-form bias" in d.summary()  # the bound may understate the extra mode's model-form error
 
 
 def test_a_nominal_that_does_not_simulate_still_gets_finite_time_domain_tests():

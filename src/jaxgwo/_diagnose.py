@@ -564,9 +564,9 @@ class Diagnosis:
             if self.structure is not None:
                 # blind-study R-50 delays: 0-13.5 ms low against bounds of 1.2-2.6 ms
                 lines.append(
-                    "The +- counts random error only: fitted on top of that extra pole pair, an approximation "
-                    "of the airframe, the parameters also carry its model-form error, which can be several "
-                    "times larger (README, 'What limits it')."
+                    "The +- counts random error, widened where the misfit runs smoothly across frequency; "
+                    "fitted on top of that extra pole pair, an approximation of the airframe, the parameters "
+                    "still carry a model-form bias it can understate (README, 'What limits it')."
                 )
             gap = "gap" + (" left by the paper model with that mode" if self.structure is not None else "")
             if top.gap_closed >= 0.0:
