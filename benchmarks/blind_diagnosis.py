@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import sys
@@ -374,9 +375,25 @@ def _param_error(effect: str, truth: dict, fit: dict) -> tuple[str, float]:
         return "abs error (ms)", 1e3 * abs(fit["delay_s"] - truth["delay_s"])
     if effect == "cross_coupling":
         return "abs error", abs(fit["gain"] - truth["gain"])
-    p = {"sensor_lag": "cutoff_hz", "rotor_flapping": "tau_f", "structural_mode": "freq_hz", "rate_limit": "rate",
-         "backlash": "width", "saturation": "limit"}[effect]  # fmt: skip
+    p = _MAIN_PARAM[effect]
     return f"rel error of {p} (%)", 100.0 * abs(fit[p] - truth[p]) / abs(truth[p])
+
+
+_MAIN_PARAM = {"time_delay": "delay_s", "sensor_lag": "cutoff_hz", "rotor_flapping": "tau_f",
+               "cross_coupling": "gain", "structural_mode": "freq_hz", "rate_limit": "rate", "backlash": "width",
+               "saturation": "limit"}  # fmt: skip
+"""The parameter each effect is scored on (:func:`_param_error`, :func:`bound_z`)."""
+
+
+def bound_z(effect: str, truth: dict, fit: dict, sigma: dict | None) -> float | None:
+    """The effect's parameter error in units of its quoted 1-sigma, ``|fit - truth| / sigma``
+    (the report's ``params`` and ``params_sigma`` of a candidate); ``None`` where no finite,
+    positive sigma was quoted."""
+    p = _MAIN_PARAM[effect]
+    s = (sigma or {}).get(p)
+    if s is None or not (math.isfinite(s) and s > 0) or fit.get(p) is None:
+        return None
+    return abs(fit[p] - truth[p]) / s
 
 
 def class_order(doc: dict) -> list[str]:
@@ -423,7 +440,10 @@ def score(workdir: str, results: dict) -> dict:
         # report from before d1926f7
         refit = doc.get("time_domain_refit") or {}
         r2_refit = float("nan") if refit.get("val_r2") is None else refit["val_r2"]
-        perr = None
+        perr, bz = None, None
+        if truth != "none" and verdict == truth:  # the verdict's own bound, as the summary quotes it
+            top = doc["ranking"][0]
+            bz = bound_z(truth, k["params"], top["params"], top.get("params_sigma"))
         if truth != "none":
             cand = next((c for c in doc["ranking"] if c["effect"] == truth), None)
             if cand is not None:
@@ -442,7 +462,7 @@ def score(workdir: str, results: dict) -> dict:
                      "floor_z": zf if None not in zf else None,
                      "identifiable_mode": oracle_identifies(zm), "observable": observable, "case": name, "truth": truth, "verdict": verdict, "top1": verdict == truth, "top2": bool(top2), "order2": order[:2],
                      "r2_nominal": r2_nom, "r2_after": r2_top, "r2_true": r2_true, "r2_refit": r2_refit,
-                     "param_error": perr,
+                     "param_error": perr, "bound_z": bz,
                      "exercised": k.get("exercised_fraction"), "plant": k["plant"], "snr_db": k["snr_db"],
                      "wall_s": doc["wall_s"], "structure_hz": structure["params"]["freq_hz"] if structure else None})  # fmt: skip
     return {"confusion": conf, "rows": rows}
@@ -618,6 +638,21 @@ def write_report(sc: dict, args, out_dir: str, elapsed: float) -> str:
              "(R2_after - R2_nominal) / (R2_true - R2_nominal) on VAL, where R2_after is the top candidate's "
              "(when the verdict is none, the nominal's, or with a structure finding the paper model with its extra mode) and R2_true that of the simulator without gusts and noise; "
              "cases where the true model is no better than the nominal on VAL are left out of that mean.")  # fmt: skip
+    L.append("")
+    L.append("## Quoted bounds")
+    L.append("")
+    L.append("Right verdicts only: the verdict's parameter against the truth in units of the 1-sigma the "
+             "diagnosis quotes for it (a calibrated bound holds the truth within 1-sigma on 68 % of cases, "
+             "within 2-sigma on 95 %).")  # fmt: skip
+    L.append("")
+    L.append("| effect | plant | cases with a bound | truth within 1-sigma | within 2-sigma | median \\|error\\|/sigma |")
+    L.append("|---|---|---|---|---|---|")
+    for c in CLASSES:
+        for plant in sorted({r["plant"] for r in rows}):
+            zs = [r["bound_z"] for r in rows if r["truth"] == c and r["plant"] == plant and r.get("bound_z") is not None]
+            if zs:
+                L.append(f"| {c} | {plant} | {len(zs)} | {sum(z < 1.0 for z in zs)} | {sum(z < 2.0 for z in zs)} | "
+                         f"{np.median(zs):.2f} |")
     L.append("")
     L.append("## Cases")
     L.append("")

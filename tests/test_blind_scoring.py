@@ -35,12 +35,14 @@ def test_combined_entries_and_failed_cases(blind):
     assert blind.class_order({"verdict": "error", "ranking": []}) == ["none"]
 
 
-def _row(case, truth, verdict, *, order2=("none",), perr=None, r2_after=0.99, r2_true=0.99, r2_refit=float("nan")):
+def _row(case, truth, verdict, *, order2=("none",), perr=None, r2_after=0.99, r2_true=0.99, r2_refit=float("nan"),
+         bound_z=None, plant="paper"):
     return {"case": case, "truth": truth, "verdict": verdict, "top1": verdict == truth,
             "top2": verdict == truth, "order2": list(order2),
             "identifiable": True, "oracle_z": (5.0, 5.0), "oracle_z_mode": None, "floor_z": None,
             "identifiable_mode": False, "observable": True, "r2_nominal": 0.9, "r2_after": r2_after,
-            "r2_true": r2_true, "r2_refit": r2_refit, "param_error": perr, "exercised": None, "plant": "paper", "snr_db": 30.0,
+            "r2_true": r2_true, "r2_refit": r2_refit, "param_error": perr, "bound_z": bound_z, "exercised": None,
+            "plant": plant, "snr_db": 30.0,
             "wall_s": 10.0, "structure_hz": None}  # fmt: skip
 
 
@@ -94,3 +96,25 @@ def test_the_report_counts_the_none_verdicts_whose_summary_names_the_null_refit(
     text = (tmp_path / "r.md").read_text()
     assert ("as the better model, its VAL R^2 0.001 or more above the frequency-domain fit's: \\|R^2 - the true "
             "model's\\|, median / max | 2/4; frequency-domain fit 0.0130 / 0.0180 -> refit 0.0040 / 0.0069 | |") in text
+
+
+def test_bound_z_is_the_error_in_quoted_sigmas(blind):
+    """|fit - truth| / sigma of the effect's own parameter; no finite positive sigma, no number."""
+    assert blind.bound_z("time_delay", {"delay_s": 0.030}, {"delay_s": 0.033}, {"delay_s": 0.002}) == pytest.approx(1.5)
+    assert blind.bound_z("structural_mode", {"freq_hz": 10.0, "zeta_p": 0.05},
+                         {"freq_hz": 9.0, "zeta_p": 0.2}, {"freq_hz": 0.25, "zeta_p": 1e-4}) == pytest.approx(4.0)
+    for sigma in (None, {}, {"rate": 0.0}, {"rate": float("nan")}, {"rate": float("inf")}):
+        assert blind.bound_z("rate_limit", {"rate": 2.0}, {"rate": 2.1}, sigma) is None
+
+
+def test_the_report_counts_the_truth_within_the_quoted_bounds_per_effect_and_plant(blind, tmp_path):
+    rows = [_row(f"case_{i:03d}", "time_delay", "time_delay", bound_z=z) for i, z in enumerate((0.5, 1.5, 2.5))]
+    rows += [_row("case_010", "time_delay", "time_delay", bound_z=3.0, plant="r50"),
+             _row("case_011", "time_delay", "none"),  # no verdict, no bound
+             _row("case_012", "backlash", "backlash")]  # a right verdict without a quoted sigma
+    _write(blind, tmp_path, rows)
+    text = (tmp_path / "r.md").read_text()
+    section = text.split("## Quoted bounds")[1].split("\n## ")[0]
+    assert "| time_delay | paper | 3 | 1 | 2 | 1.50 |" in section
+    assert "| time_delay | r50 | 1 | 0 | 0 | 3.00 |" in section
+    assert "| backlash |" not in section
