@@ -370,6 +370,12 @@ def _r2(y, p):
     return 1.0 - float(np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2))
 
 
+_MAIN_PARAM = {"time_delay": "delay_s", "sensor_lag": "cutoff_hz", "rotor_flapping": "tau_f",
+               "cross_coupling": "gain", "structural_mode": "freq_hz", "rate_limit": "rate", "backlash": "width",
+               "saturation": "limit"}  # fmt: skip
+"""The parameter each effect is scored on (:func:`_param_error`, :func:`bound_z`)."""
+
+
 def _param_error(effect: str, truth: dict, fit: dict) -> tuple[str, float]:
     if effect == "time_delay":
         return "abs error (ms)", 1e3 * abs(fit["delay_s"] - truth["delay_s"])
@@ -377,12 +383,6 @@ def _param_error(effect: str, truth: dict, fit: dict) -> tuple[str, float]:
         return "abs error", abs(fit["gain"] - truth["gain"])
     p = _MAIN_PARAM[effect]
     return f"rel error of {p} (%)", 100.0 * abs(fit[p] - truth[p]) / abs(truth[p])
-
-
-_MAIN_PARAM = {"time_delay": "delay_s", "sensor_lag": "cutoff_hz", "rotor_flapping": "tau_f",
-               "cross_coupling": "gain", "structural_mode": "freq_hz", "rate_limit": "rate", "backlash": "width",
-               "saturation": "limit"}  # fmt: skip
-"""The parameter each effect is scored on (:func:`_param_error`, :func:`bound_z`)."""
 
 
 def bound_z(effect: str, truth: dict, fit: dict, sigma: dict | None) -> float | None:
