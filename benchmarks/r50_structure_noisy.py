@@ -91,7 +91,8 @@ def make(obj, sname, ename):
 
 
 def fit_j(obj, x_nom, sname, ename):
-    """Best ``(J, x)`` over the grid of structure and effect starts (paper parameters within x8 of the nominal)."""
+    """Best ``(J, x)`` over the grid of structure and effect starts (paper parameters within x8 of the nominal);
+    ``None`` where every start raised or ended at a non-finite ``J``."""
     r, jf = make(obj, sname, ename)
     slo, shi, sst = STRUCT[sname]
     elo, ehi, est = EFF[ename]
@@ -155,6 +156,9 @@ def main() -> int:
             fits = {e: fit_j(prep.objective, x_nom, sname, e) for e in effects}
             cells = []
             for e in effects:
+                if fits[e] is None:  # every start raised or ended at a non-finite J: say so, keep the row
+                    cells.append("no finite fit")
+                    continue
                 j, x = fits[e]
                 cells.append(f"{j:.2f}" + (f" ({_PARAM_TEXT[e](x[5 + ns :])})" if e != "none" else ""))
             rows.append((c, truth["effect"], t_text, float(nominal.cost_J), sname, cells))
