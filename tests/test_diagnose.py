@@ -203,6 +203,100 @@ def test_delay_aware_start_recovers_a_long_delay_and_the_gain_sign():
     assert ds.cost_J < 1.0  # WLS on the exactly delay-compensated, noise-free response is all but exact
 
 
+def _airframe_numpy(w, p, fz, fp, fm, zp, zz, delay):
+    """Eqs. (15)-(16) times a lead-lag, a pole pair and a delay, in plain NumPy."""
+    s = 1j * np.asarray(w)
+    k, tau, m, ws, zs = p
+    wm = 2 * np.pi * fm
+    return (k / (s * s + s / tau + m) * ws**2 / (s * s + 2 * zs * ws * s + ws**2)
+            * (s / (2 * np.pi * fz) + 1) / (s / (2 * np.pi * fp) + 1)
+            * (s * s + 2 * zz * wm * s + wm**2) / (s * s + 2 * zp * wm * s + wm**2) * np.exp(-s * delay))  # fmt: skip
+
+
+_AIRFRAME = (1.3, 4.0, 1.8, 0.2, 0.8)  # lead-lag zero and pole (Hz), pair (Hz, pole and zero damping)
+
+
+def test_lead_lag_airframe_response_matches_numpy():
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import LeadLagAirframe
+    from jaxgwo._models import ParameterMap
+
+    p = np.abs(np.asarray(MODEL.to_array(), float))
+    resp = _response(lambda w: MODEL.frequency_response(w), w_max=120.0)
+    obj = LeadLagAirframe(CiferObjective.from_response(resp, ParameterMap.for_model(MODEL)))
+    x = np.r_[np.log(p), np.log(_AIRFRAME), 0.025]
+    np.testing.assert_allclose(np.asarray(obj.response(jnp.asarray(x))),
+                               _airframe_numpy(resp.w, p, *_AIRFRAME, 0.025), rtol=1e-10)  # fmt: skip
+
+
+def test_airframe_delay_refit_recovers_a_delay_inside_its_family():
+    """Noise-free data from the lead-lag x low-mode airframe with a 40 ms delay; the refit
+    starts where a pair fit might leave it (paper parameters 30 % off, the delay 10 ms
+    short, the pair elsewhere) and reads the delay back."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import airframe_delay_refit
+    from jaxgwo._models import ParameterMap
+
+    p = np.abs(np.asarray(MODEL.to_array(), float))
+    delay = 0.040
+    resp = _response(lambda w: jnp.asarray(_airframe_numpy(w, p, *_AIRFRAME, delay)), w_max=120.0)
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    x_fit = np.r_[np.log(p) + np.log([1.3, 0.8, 1.3, 0.8, 1.3]), delay - 0.010, np.log(100.0), 0.0,
+                  np.log([8.0, 0.3, 3.0])]  # fmt: skip
+    d, j = airframe_delay_refit(obj, x_fit)
+    assert abs(d - delay) < 5e-4
+    assert j < 1e-3
+
+
+def test_bracketed_delay_is_the_centre_with_a_rectangular_spread_in_quadrature():
+    from jaxgwo._diagnose_which import bracketed_delay
+
+    d, s = bracketed_delay(0.020, 0.0009, 0.028)
+    assert d == pytest.approx(0.024) and s == pytest.approx(math.hypot(0.0009, 0.004 / math.sqrt(3.0)))
+    assert bracketed_delay(0.028, 0.0009, 0.020) == pytest.approx((d, s))  # either order
+    assert bracketed_delay(0.020, 0.0009, 0.020) == pytest.approx((0.020, 0.0009))
+    assert math.isnan(bracketed_delay(0.020, math.nan, 0.028)[1])
+
+
+def test_airframe_bracket_reports_the_centre_only_for_a_delay_that_beats_noise():
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose import _airframe_bracket, _params_text
+    from jaxgwo._diagnose_which import CandidateScore, LinearFit, airframe_delay_refit
+    from jaxgwo._models import ParameterMap
+
+    p = np.abs(np.asarray(MODEL.to_array(), float))
+    resp = _response(lambda w: jnp.asarray(_airframe_numpy(w, p, *_AIRFRAME, 0.040)), w_max=120.0)
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    pair = ("structural_mode", "time_delay")
+    x_fit = np.r_[np.log(p), 0.036, np.log(100.0), 0.0, np.log([8.0, 0.3, 3.0])]
+    fits = {pair: LinearFit(pair, x_fit, 1.0, {}, {})}
+    lin_from = {pair: (obj, x_fit[:5], x_fit[5:], np.ones(5))}
+    nan = math.nan
+
+    def cand(effect, ok, delay=0.036):
+        params = {"time_delay": {"delay_s": delay}} if effect == "time_delay" else {effect: {}}
+        sigma = {"time_delay": {"delay_s": 0.001}} if effect == "time_delay" else {effect: {}}
+        return CandidateScore((effect,), params, sigma, nan, nan, nan, nan, nan, nan, nan, nan, nan, ok, 0.0, 1.0, 1)
+
+    for unchanged in (cand("time_delay", False), cand("sensor_lag", True)):
+        assert _airframe_bracket(unchanged, fits, lin_from) is unchanged
+    assert _airframe_bracket(cand("time_delay", True), {}, lin_from).params["time_delay"]["delay_s"] == 0.036
+    out = _airframe_bracket(cand("time_delay", True), fits, lin_from)
+    d_air, j_air = airframe_delay_refit(obj, x_fit)
+    assert out.detail["delay_pair_s"] == 0.036 and out.detail["delay_airframe_s"] == pytest.approx(d_air)
+    assert out.params["time_delay"]["delay_s"] == pytest.approx(0.5 * (0.036 + d_air))
+    spread = 0.5 * abs(d_air - 0.036) / math.sqrt(3.0)  # the bracket's rectangular spread
+    assert out.sigma["time_delay"]["delay_s"] == pytest.approx(math.hypot(0.001, spread))
+    assert "two airframe models read" in _params_text(out)
+    # where the pair fits J better than the lead-lag airframe, only the ratio is recorded
+    assert 0.0 < j_air < 1.0 and out.detail["airframe_J_ratio"] == pytest.approx(j_air)
+    better_pair = {pair: LinearFit(pair, x_fit, 0.5 * j_air, {}, {})}
+    kept = _airframe_bracket(cand("time_delay", True), better_pair, lin_from)
+    assert kept.params["time_delay"]["delay_s"] == 0.036 and kept.sigma["time_delay"]["delay_s"] == 0.001
+    assert kept.detail["airframe_J_ratio"] > 1.0 and "delay_airframe_s" not in kept.detail
+    assert "airframe models" not in _params_text(kept)
+
+
 def test_mode_profile_finds_a_mode_the_nominal_servo_absorbed():
     """The structural mode's profile (``_mode_scan``) refits the paper parameters and the
     damping at every grid frequency.  Started, as a nominal fit leaves it, from a servo
@@ -1270,6 +1364,8 @@ def test_structure_hidden_behind_a_long_delay_is_found():
     assert d.verdict == "time_delay"
     top = d.ranking[0]
     assert abs(top.params["time_delay"]["delay_s"] - 0.06) < 0.003
+    # the pair is the plant's own: the lead-lag airframe fits J worse, and the delay stays the pair fit's
+    assert top.detail["airframe_J_ratio"] > 1.0 and "delay_airframe_s" not in top.detail
     # the mode closes most of the held-out gap the delay alone leaves (0.940 -> 0.992 here)
     alone = d.paper_ranking[0].val_r2
     assert (top.val_r2 - alone) / (1.0 - alone) > 0.5 and top.val_r2 > 0.98
