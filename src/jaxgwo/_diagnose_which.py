@@ -263,6 +263,8 @@ damping), as ``benchmarks/r50_structure_noisy.py`` probed it."""
 
 _LEAD_LAG_STARTS = tuple(np.log([a, b, f, 0.3, 0.3]) for a in (0.5, 1.1, 2.0) for b in (2.0, 4.0, 8.0)
                          for f in (1.0, 2.0))  # fmt: skip
+"""The 18 starts of :func:`airframe_delay_refit`'s lead-lag and low pair (zero 0.5-2 Hz, pole
+2-8 Hz, pair at 1 or 2 Hz), the grid the probe used."""
 
 
 def airframe_delay_refit(objective: CiferObjective, x_fit: np.ndarray) -> tuple[float, float] | None:
