@@ -32,7 +32,9 @@ from scipy.optimize import least_squares
 
 import jaxgwo  # noqa: F401  (float64)
 from jaxgwo._data import load_record
-from jaxgwo._diagnose_which import _SLOTS, _Z_HI, _Z_HI_STRUCTURE, _Z_LO, _flipped_objective, delay_aware_start
+from jaxgwo._diagnose import _DELAY_GRID_S
+from jaxgwo._diagnose_which import (_LEAD_LAG_BOX, _LEAD_LAG_STARTS, _SLOTS, _Z_HI, _Z_HI_STRUCTURE, _Z_LO,
+                                    _flipped_objective, delay_aware_start)  # fmt: skip
 from jaxgwo._effects import rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
 from jaxgwo._identify import IdentifySettings, _prepare, identify_channels
 
@@ -46,10 +48,9 @@ STRUCT = {
              [np.log([f, zp, zz]) for f in (3.5, 6, 10) for zp, zz in ((0.5, 1.5), (0.3, 3))]),
     "leadlag": (np.log([0.08, 0.08]), np.log([80.0, 80.0]), [np.log([a, b]) for a in (0.5, 1.1, 2) for b in (2, 4, 8)]),
 }  # fmt: skip
-# the lead-lag (zero, pole in Hz) times a low mode (Hz, pole damping, zero damping) in r50_structure_families.py's box
-STRUCT["leadlag_mode"] = (np.r_[STRUCT["leadlag"][0], np.log([0.5, 0.01, 0.01])],
-                          np.r_[STRUCT["leadlag"][1], np.log([3.0, 2.0, 10.0])],
-                          [np.r_[a, np.log([f, 0.3, 0.3])] for a in STRUCT["leadlag"][2] for f in (1.0, 2.0)])  # fmt: skip
+# the lead-lag (zero, pole in Hz) times a low mode (Hz, pole damping, zero damping) in r50_structure_families.py's
+# box: the box and starts the diagnosis's LeadLagAirframe refit took from this probe
+STRUCT["leadlag_mode"] = (*_LEAD_LAG_BOX, list(_LEAD_LAG_STARTS))
 EFF_STARTS = {
     "none": [np.zeros(0)],
     "time_delay": [np.array([d]) for d in (0.005, 0.02, 0.05)],
@@ -151,8 +152,8 @@ def main() -> int:
         nominal = identify_channels({"lateral": tr}, IDS)["lateral"]
         prep = _prepare(tr, "lateral", IDS)
         x_nom = np.log(np.asarray(nominal.model.to_array(), float) * np.array([prep.sign, 1, 1, 1, 1]))
-        ds = (delay_aware_start(prep.response, prep.objective, prep.sign, np.arange(0.0, _Z_HI[0] + 1e-9, 0.005),
-                                IDS.sk_iterations) if "time_delay" in effects else None)  # fmt: skip
+        ds = (delay_aware_start(prep.response, prep.objective, prep.sign, _DELAY_GRID_S, IDS.sk_iterations)
+              if "time_delay" in effects else None)  # fmt: skip
         truth = key[c]
         t_text = _TRUTH_TEXT[truth["effect"]](truth["params"]) if truth["effect"] in _TRUTH_TEXT else ""
         for sname in families:

@@ -561,14 +561,14 @@ def fit_linear_candidates(
 
         plo, phi = (b[idx] for b in _polish_box(lo, hi))
         v0 = np.clip(xb[idx], plo + 1e-12, phi - 1e-12)
-        x, cost = xb, float(obj(jnp.asarray(xb)))
+        x, cost, res = xb, float(obj(jnp.asarray(xb))), None
         try:
             sol = least_squares(fun, v0, jac=jac, bounds=(plo, phi), method="trf", xtol=1e-10, ftol=1e-10,
                                 max_nfev=200)  # fmt: skip
             if float(np.sum(sol.fun**2)) <= cost:
                 x = full.copy()
                 x[idx] = sol.x
-                cost = float(np.sum(sol.fun**2))
+                cost, res = float(np.sum(sol.fun**2)), sol.fun  # the polish's residuals at x
         except (ValueError, np.linalg.LinAlgError):
             pass  # the polish stepped where the response overflows (seed-79 case_025): the pack's best stands
         Jm = jac(x[idx])
@@ -576,7 +576,8 @@ def fit_linear_candidates(
         m = int(np.sum(passing))
         s2 = cost / max(1, 2 * m - idx.size)
         if np.all(np.isfinite(Jm)):
-            inflation = max(dependence_factor**2, residual_correlation_inflation(fun(x[idx]), passing))
+            res = fun(x[idx]) if res is None else res
+            inflation = max(dependence_factor**2, residual_correlation_inflation(res, passing))
             cov = np.linalg.pinv(Jm.T @ Jm) * s2 * inflation
             sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
         else:
