@@ -2139,6 +2139,28 @@ def test_a_resonance_found_by_j_and_the_matched_filter_is_one_finding(j, td, sam
     assert _same_resonance(_mode_fit(*j), {"freq_hz": td, "zeta_p": 0.07, "zeta_z": 0.15}, 1e-3) is same
 
 
+@pytest.mark.parametrize("effect, mode, p, dbic, found", [
+    # seed-223 case_020 (R-50, a 10.11 Hz mode): J 7.20 -> 3.71 beside the structure pair
+    ("structural_mode", (10.14, 0.054, 0.090), 1.2e-5, -20.0, True),
+    # seed-269 case_007 (R-50, a 13.69 Hz mode)
+    ("structural_mode", (14.45, 0.046, 0.651), 3.3e-12, -40.0, True),
+    ("structural_mode", (10.14, 0.054, 0.090), 2e-3, -20.0, False),  # J's F-test fails alpha
+    ("structural_mode", (10.14, 0.054, 0.090), 1.2e-5, 0.5, False),  # its BIC does not improve
+    ("structural_mode", (10.14, 0.054, 0.060), 1.2e-5, -20.0, False),  # zeros below the poles: a notch
+    ("structural_mode", (8.65, 0.335, 1.5), 1e-10, -40.0, False),  # a broad pair imitating a lag
+    ("structural_mode", (3.0, 0.2, 0.14), 1e-10, -40.0, False),  # on the box's edge beside a pair
+    ("structural_mode", (45.0, 0.01, 1.5), 1e-10, -40.0, False),  # on the box's edge (rate limits)
+    ("sensor_lag", (10.14, 0.054, 0.090), 1e-10, -40.0, False),  # not a resonance's candidate
+])  # fmt: skip
+def test_a_resonance_j_finds_needs_the_held_out_records_only_not_to_contradict_it(effect, mode, p, dbic, found):
+    """:func:`_resonance_found_by_j`: where it holds, the candidate's held-out floor is a
+    linear ``J`` fit's (``z_min``, ``min_gap``) instead of a positive gap."""
+    from jaxgwo._diagnose import _resonance_found_by_j
+
+    sc = _mode_fit(*mode, p=p, dbic=dbic)
+    assert _resonance_found_by_j((effect,), sc.params, sc, 1e-3) is found
+
+
 def test_a_resonance_j_does_not_find_on_its_own_needs_the_held_out_confirmation():
     from jaxgwo._diagnose import _same_resonance
 
