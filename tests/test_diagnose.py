@@ -2148,6 +2148,7 @@ def test_a_resonance_found_by_j_and_the_matched_filter_is_one_finding(j, td, sam
     ("structural_mode", (10.14, 0.054, 0.090), 1.2e-5, 0.5, False),  # its BIC does not improve
     ("structural_mode", (10.14, 0.054, 0.060), 1.2e-5, -20.0, False),  # zeros below the poles: a notch
     ("structural_mode", (8.65, 0.335, 1.5), 1e-10, -40.0, False),  # a broad pair imitating a lag
+    ("structural_mode", (8.65, 0.15, 1.2), 1e-10, -40.0, False),  # real zeros: a pair, not a resonance
     ("structural_mode", (3.0, 0.2, 0.14), 1e-10, -40.0, False),  # on the box's edge beside a pair
     ("structural_mode", (45.0, 0.01, 1.5), 1e-10, -40.0, False),  # on the box's edge (rate limits)
     ("sensor_lag", (10.14, 0.054, 0.090), 1e-10, -40.0, False),  # not a resonance's candidate

@@ -796,9 +796,11 @@ def _resonance_found_by_j(effects: Sequence[str], params: Mapping, sc: Candidate
     """Whether the ``J`` fit of a ``structural_mode`` (its ``params``, score ``sc``) is a
     resonance of the vocabulary's shape (:func:`_resonance_in_box`) that ``J`` finds on its
     own evidence (:func:`_j_finds`: F-test at ``alpha`` and BIC; a fit on an edge of its box
-    beside a structure finding's pair has no evidence, :func:`_on_box_edge`).  Its held-out
-    records then need only not contradict it (``z_min``, ``min_gap``), as a linear ``J``
-    fit's, instead of closing a positive gap.
+    beside a structure finding's pair has no evidence, :func:`_on_box_edge`), with complex
+    zeros (zero damping below 1: real zeros make it a pole pair the paper model lacks,
+    :class:`DiagnoseSettings`' ``structure_zeta_z``).  Its held-out records then need only
+    not contradict it (``z_min``, ``min_gap``), as a linear ``J`` fit's, instead of closing
+    a positive gap.
 
     The held-out 3-2-1-1s and doublets carry 1-23 % of the identification records' input
     energy within 20 % of the fitted frequency (Welch, on the 36 resonance-shaped ``J`` fits
@@ -816,6 +818,7 @@ def _resonance_found_by_j(effects: Sequence[str], params: Mapping, sc: Candidate
         tuple(effects) == ("structural_mode",)
         and _j_finds(sc, alpha)
         and _resonance_in_box(params["structural_mode"])
+        and params["structural_mode"]["zeta_z"] < 1.0
     )
 
 
