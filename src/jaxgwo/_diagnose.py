@@ -806,14 +806,15 @@ def _resonance_found_by_j(effects: Sequence[str], params: Mapping, sc: Candidate
     energy within 20 % of the fitted frequency (Welch, on the 36 resonance-shaped ``J`` fits
     at p < 1e-3 of blind seeds 199-269, found or not), so what a resonance's fit does on
     them is mostly what its refitted paper parameters do.  The positive gap was set against
-    a ``J`` bump a ``none`` case fitted at p 1e-4 (seed 41, :class:`DiagnoseSettings`).  On
-    the stored rankings of blind seeds 199-269 (576 cases) it refused two true resonances,
-    both on R-50 plants beside the structure finding's pair, and no case without one:
-    seed-223 case_020 (10.14 Hz for 10.11, ``J`` 7.20 -> 3.71 at p 1e-5, held-out z -1.87,
-    gap -0.034) and seed-269 case_007 (14.45 Hz for 13.69, p 3e-12, z -0.95, gap -0.12, the
-    verdict a flapping lag); the one other such fit the held-out records refused was a
-    paper-plant flapping lag's broad mode (199/002, z -2.48), which ``z_min`` still refuses.
-    Rediagnosed on this rule, both answer ``structural_mode`` (10.14 and 14.45 Hz)."""
+    a ``J`` bump a ``none`` case fitted at p 1e-4 (seed 41, :class:`DiagnoseSettings`).
+    Replayed on the stored rankings of blind seeds 199-269 (576 cases), this floor admits
+    two true resonances, both on R-50 plants beside the structure finding's pair, and no
+    case without one: seed-223 case_020 (10.14 Hz for 10.11, ``J`` 7.20 -> 3.71 at p 1e-5,
+    held-out z -1.87, gap -0.034) and seed-269 case_007 (14.45 Hz for 13.69, p 3e-12, z
+    -0.95, gap -0.12, the verdict a flapping lag).  The two other such fits the held-out
+    records refused stay refused by ``z_min``: a paper resonance (233/020, z -2.37) and a
+    paper flapping lag's broad mode (199/002, z -2.48).  Rediagnosed on this rule, 223/020
+    and 269/007 answer ``structural_mode`` (10.14 and 14.45 Hz)."""
     return bool(
         tuple(effects) == ("structural_mode",)
         and _j_finds(sc, alpha)
