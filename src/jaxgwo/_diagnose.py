@@ -803,7 +803,7 @@ def _resonance_found_by_j(effects: Sequence[str], params: Mapping, sc: Candidate
     a positive gap.
 
     The held-out 3-2-1-1s and doublets carry 0.7-23 % of the identification records' input
-    energy within 20 % of the fitted frequency (Welch, on the 36 resonance-shaped ``J`` fits
+    energy within 20 % of the fitted frequency (Welch, on the 39 resonance-shaped ``J`` fits
     at p < 1e-3 of blind seeds 199-269, found or not), so what a resonance's fit does on
     them is mostly what its refitted paper parameters do.  The positive gap was set against
     a ``J`` bump a ``none`` case fitted at p 1e-4 (seed 41, :class:`DiagnoseSettings`).
