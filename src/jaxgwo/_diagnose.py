@@ -1282,9 +1282,10 @@ def _airframe_bracket(sc: CandidateScore, fits: Mapping, lin_from: Mapping) -> C
     R-50 delay of the blind study, J ratio 0.54-0.83).  Where the pair describes it
     better, as a pole pair with real zeros on the paper model does (in
     ``test_structure_hidden_behind_a_long_delay_is_found`` the lead-lag family read its
-    60 ms delay 14.5 ms long, the centre 7 ms), only the ratio is recorded.  Only the reported delay and its bound change: the model
-    scored on the held-out records, and so the ranking, stays the pair fit's.  Any other
-    candidate, or one without that fit, is returned as it is."""
+    60 ms delay 14.5 ms long, the centre 7 ms), only the ratio is recorded.  Only the
+    reported delay and its bound change: the model scored on the held-out records, and so
+    the ranking, stays the pair fit's.  Any other candidate, or one without that fit, is
+    returned as it is."""
     pair = ("structural_mode", "time_delay")
     if sc.effects != ("time_delay",) or not sc.beats_noise or pair not in fits:
         return sc
