@@ -261,7 +261,7 @@ def test_bracketed_delay_is_the_centre_with_a_rectangular_spread_in_quadrature()
 def test_airframe_bracket_reports_the_centre_only_for_a_delay_that_beats_noise():
     from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose import _airframe_bracket, _params_text
-    from jaxgwo._diagnose_which import CandidateScore, LinearFit, airframe_delay_refit
+    from jaxgwo._diagnose_which import LinearFit, airframe_delay_refit
     from jaxgwo._models import ParameterMap
 
     p = np.abs(np.asarray(MODEL.to_array(), float))
@@ -271,12 +271,12 @@ def test_airframe_bracket_reports_the_centre_only_for_a_delay_that_beats_noise()
     x_fit = np.r_[np.log(p), 0.036, np.log(100.0), 0.0, np.log([8.0, 0.3, 3.0])]
     fits = {pair: LinearFit(pair, x_fit, 1.0, {}, {})}
     lin_from = {pair: (obj, x_fit[:5], x_fit[5:], np.ones(5))}
-    nan = math.nan
 
-    def cand(effect, ok, delay=0.036):
-        params = {"time_delay": {"delay_s": delay}} if effect == "time_delay" else {effect: {}}
-        sigma = {"time_delay": {"delay_s": 0.001}} if effect == "time_delay" else {effect: {}}
-        return CandidateScore((effect,), params, sigma, nan, nan, nan, nan, nan, nan, nan, nan, nan, ok, 0.0, 1.0, 1)
+    def cand(effect, ok):
+        if effect != "time_delay":
+            return _scored(effect, 1.0, ok)
+        return dataclasses.replace(_scored(effect, 1.0, ok), params={effect: {"delay_s": 0.036}},
+                                   sigma={effect: {"delay_s": 0.001}})  # fmt: skip
 
     for unchanged in (cand("time_delay", False), cand("sensor_lag", True)):
         assert _airframe_bracket(unchanged, fits, lin_from) is unchanged
