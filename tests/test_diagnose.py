@@ -6,6 +6,7 @@ import dataclasses
 import functools
 import json
 import math
+import warnings
 
 import equinox as eqx
 import jax
@@ -2023,7 +2024,8 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
     candidate that beats the refit (z above ``z_min``) but not the nominal passes only with
     ``gap_against_baseline``; its reported gap stays the nominal's (here negative).  One
     that falls below the refit fails either way, and the rule changes nothing for one
-    that beats the nominal.  The R^2 values are checked against a plain NumPy formula."""
+    that beats the nominal.  The R^2 values are checked against a plain NumPy formula.
+    Evidence that is not a number, or a prediction that diverged, beats nothing."""
     from jaxgwo._diagnose_which import score_candidate
 
     rng = np.random.default_rng(3)
@@ -2055,6 +2057,16 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
                                    500.0, 1, 0.02, 0.02, 0.0, extra_train_p=1e-12, j_required=False, z_min=1.0,
                                    min_gap=0.0, evidence=math.nan)  # fmt: skip
     assert not nan_evidence.beats_noise and math.isnan(nan_evidence.score)
+    # a simulation that diverged to huge but finite values (seed-211 case_057) beats nothing
+    # and sorts last, without numpy's overflow warnings
+    blown = y + 0.05 * err
+    blown[-50:] = np.geomspace(1.0, 1e200, 50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        for against in (False, True):
+            sc = scored(blown, against)
+            assert not sc.beats_noise and sc.val_r2 == -math.inf and sc.score == -math.inf
+            assert math.isnan(sc.z_score) and sc.delta_bic_val == math.inf
 
 
 def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
