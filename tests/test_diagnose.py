@@ -2174,6 +2174,46 @@ def test_a_resonance_j_finds_needs_the_held_out_records_only_not_to_contradict_i
     assert _resonance_found_by_j((effect,), sc.params, sc, 1e-3) is found
 
 
+def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monkeypatch):
+    """The wiring of :func:`_resonance_found_by_j` inside ``diagnose``.  An 8.5 Hz resonance
+    (pole damping 0.07, zeros 0.15) that ``J`` finds is made to fail its own held-out floor:
+    the positive gap every ``structural_mode`` needs is raised here to 0.5, above the gap
+    its fit closes, standing in for held-out records that hardly see the mode (seed-277
+    case_056: gap -0.036).  ``diagnose`` then scores it again on a linear ``J`` fit's floor;
+    that fit is the verdict and says so (``passed_as_resonance_found_by_J``).  With the rule
+    switched off the ``J`` fit is refused (here its output-error refit stands in, on its own
+    route).  Only the resonance and a delay are candidates, which keeps each diagnosis to
+    seconds."""
+    import jaxgwo._diagnose as dg
+
+    train, val = _case("structural_mode", seed=2, freq_hz=8.5, zeta_p=0.07, zeta_z=0.15)
+    settings = dataclasses.replace(SETTINGS, candidates=("structural_mode", "time_delay"))
+    own_floor = dg._held_out_floor
+
+    def raised(s, effects, *args, **kw):
+        z_min, min_gap = own_floor(s, effects, *args, **kw)
+        return (z_min, 0.5) if tuple(effects) == ("structural_mode",) and min_gap == 0.0 else (z_min, min_gap)
+
+    monkeypatch.setattr(dg, "_held_out_floor", raised)
+    d = diagnose(train, val, "lateral", settings)
+    top = d.ranking[0]
+    assert d.verdict == "structural_mode" and d.structure is None
+    assert abs(top.params["structural_mode"]["freq_hz"] / 8.5 - 1.0) < 0.03
+    assert top.beats_noise and 0.0 < top.gap_closed < 0.5 and top.z_score > SETTINGS.z_min
+    assert top.detail.get("passed_as_resonance_found_by_J") == 1.0
+    assert top.detail.get("time_domain_path") == 0.0  # the J fit itself
+    monkeypatch.setattr(dg, "_resonance_found_by_j", lambda *args, **kw: False)
+    off = diagnose(train, val, "lateral", settings)
+    (mode,) = [c for c in off.ranking if c.effects == ("structural_mode",)]
+    # the J fit refused; what stands now, if anything, is the mode's output-error refit
+    assert mode.detail.get("time_domain_path") == 1.0 or not mode.beats_noise
+    assert "passed_as_resonance_found_by_J" not in mode.detail
+    # without the raised floor the fit passes on its own (positive) gap, unmarked
+    monkeypatch.setattr(dg, "_held_out_floor", own_floor)
+    plain = diagnose(train, val, "lateral", settings)
+    assert plain.verdict == "structural_mode" and "passed_as_resonance_found_by_J" not in plain.ranking[0].detail
+
+
 def test_a_resonance_j_does_not_find_on_its_own_needs_the_held_out_confirmation():
     from jaxgwo._diagnose import _same_resonance
 

@@ -1613,6 +1613,8 @@ def diagnose(
         sc = held_out(_held_out_floor(settings, effects, time_domain, confirm, as_linear))
         if j_resonance and not sc.beats_noise and veto and _resonance_found_by_j(effects, params, sc, a):
             sc = held_out((settings.z_min, settings.min_gap))
+            if sc.beats_noise:  # marked here, where the floor is chosen
+                sc = dataclasses.replace(sc, detail={**sc.detail, "passed_as_resonance_found_by_J": 1.0})
         return sc
 
     def rank(base: _Base, names: Sequence[str], k_lin, k_nl, stage: int, what: str, prior=None):
@@ -1838,8 +1840,8 @@ def diagnose(
         for own, sc, sc_td, td_spec, det in lin_scores:
             if sc_td is not None:
                 det["td_p_J_worse"] = j_worse_p(sc_td, m_eff)
-            if own == ("structural_mode",) and sc.beats_noise and not sc.gap_closed > 0.0:
-                det["passed_as_resonance_found_by_J"] = 1.0  # _resonance_found_by_j's floor
+            if sc.detail.get("passed_as_resonance_found_by_J"):  # score() chose that floor
+                det["passed_as_resonance_found_by_J"] = 1.0
             if _takes_time_domain_path(sc, sc_td, j_found, settings.alpha, settings.structure_zeta_z, m_eff=m_eff):
                 sc, specs[own] = sc_td, td_spec
                 det["time_domain_path"] = 1.0
