@@ -830,7 +830,8 @@ def _held_out_floor(settings: DiagnoseSettings, effects: Sequence[str], time_dom
     time-domain candidate that must be confirmed (``confirm``) needs ``z_min_time``; any
     time-domain candidate and any ``structural_mode`` need a positive gap (the docstring
     of :class:`DiagnoseSettings`).  ``as_linear`` (a resonance two tests find,
-    :func:`_same_resonance`) takes a linear ``J`` fit's floor."""
+    :func:`_same_resonance`, or one ``J`` finds on its own, :func:`_resonance_found_by_j`)
+    takes a linear ``J`` fit's floor."""
     if as_linear:
         return settings.z_min, settings.min_gap
     z_min = settings.z_min_time if time_domain and confirm else settings.z_min
@@ -1612,7 +1613,7 @@ def diagnose(
 
         sc = held_out(_held_out_floor(settings, effects, time_domain, confirm, as_linear))
         if j_resonance and not sc.beats_noise and veto and _resonance_found_by_j(effects, params, sc, a):
-            sc = held_out((settings.z_min, settings.min_gap))
+            sc = held_out(_held_out_floor(settings, effects, time_domain, confirm, as_linear=True))
             if sc.beats_noise:  # marked here, where the floor is chosen
                 sc = dataclasses.replace(sc, detail={**sc.detail, "passed_as_resonance_found_by_J": 1.0})
         return sc
