@@ -2214,6 +2214,47 @@ def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monke
     assert plain.verdict == "structural_mode" and "passed_as_resonance_found_by_J" not in plain.ranking[0].detail
 
 
+def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_noise(monkeypatch):
+    """The wiring of :func:`_matched_filter_alone` (``alpha_resonance``) inside ``diagnose``.
+    The 8.5 Hz resonance of the test above, with its ``J`` fit refused as there (positive-gap
+    floor raised to 0.5, :func:`_resonance_found_by_j` off) and ``J`` made not to agree with
+    the output-error refit (:func:`_same_resonance` off), as on seed-227 case_029.  The
+    refit lands on the mode at matched-filter z 5.7, beyond the level's 5.1, while the
+    held-out records do not confirm it (z -0.3, below ``z_min_time``): it stands in for the
+    ``J`` fit on the unconfirmed floor, and the summary says why.  With ``alpha_resonance``
+    0 (off) it needs that confirmation and is refused."""
+    import jaxgwo._diagnose as dg
+    from jaxgwo._diagnose_which import matched_filter_p
+
+    train, val = _case("structural_mode", seed=2, freq_hz=8.5, zeta_p=0.07, zeta_z=0.15)
+    own_floor = dg._held_out_floor
+
+    def raised(s, effects, time_domain, *args, **kw):
+        z_min, min_gap = own_floor(s, effects, time_domain, *args, **kw)
+        j_fit = tuple(effects) == ("structural_mode",) and not time_domain and not kw.get("as_linear")
+        return (z_min, 0.5) if j_fit else (z_min, min_gap)
+
+    monkeypatch.setattr(dg, "_held_out_floor", raised)
+    monkeypatch.setattr(dg, "_resonance_found_by_j", lambda *args, **kw: False)
+    monkeypatch.setattr(dg, "_same_resonance", lambda *args, **kw: False)
+    settings = dataclasses.replace(SETTINGS, candidates=("structural_mode", "time_delay"))
+    d = diagnose(train, val, "lateral", settings)
+    top = d.ranking[0]
+    assert d.verdict == "structural_mode" and d.structure is None
+    assert abs(top.params["structural_mode"]["freq_hz"] / 8.5 - 1.0) < 0.03
+    assert top.detail.get("time_domain_path") == 1.0  # the output-error refit stands in
+    assert top.detail.get("td_passed_on_matched_filter_alone") == 1.0
+    assert matched_filter_p(top.detail["td_mf_z"], 3) < settings.alpha_resonance
+    # what makes the rule decide: not contradicted, yet not confirmed
+    assert top.beats_noise and top.gap_closed > 0.0 and settings.z_min < top.z_score <= settings.z_min_time
+    assert f"matched-filter z {top.detail['td_mf_z']:.1f}" in d.summary()
+    off = diagnose(train, val, "lateral", dataclasses.replace(settings, alpha_resonance=0.0))
+    (mode,) = [c for c in off.ranking if c.effects == ("structural_mode",)]
+    assert off.verdict != "structural_mode" and not mode.beats_noise
+    assert mode.detail.get("time_domain_path") == 0.0 and "td_passed_on_matched_filter_alone" not in mode.detail
+    assert mode.detail["td_mf_z"] == top.detail["td_mf_z"]  # the same refit, refused for want of confirmation
+
+
 def test_a_resonance_j_does_not_find_on_its_own_needs_the_held_out_confirmation():
     from jaxgwo._diagnose import _same_resonance
 
