@@ -7,9 +7,11 @@ structure (``mode``: the structure step's wide-box mode; ``leadlag``: a first-or
 lead-lag; ``leadlag_mode``: that lead-lag times a mode held to 0.5-3 Hz, the family that
 fits the published R-50 to 0.78 deg noise-free) x each linear effect is refitted on the
 CIFER cost ``J`` of the TRAIN response (bounded ``scipy.optimize.least_squares`` from a
-grid of starts, JAX's Jacobian).  Prints ``J`` per pair and the fitted effect parameter,
-beside the key's truth; ``--out`` writes the table as markdown.  A development probe:
-frequency domain only, no held-out scoring, no significance test.
+grid of starts, JAX's Jacobian).  Prints ``J`` per pair, the fitted effect parameter and
+the p-value of the ``J`` F-test the diagnosis applies to an effect beside its base
+(:func:`jaxgwo._diagnose_which.j_f_test_p` on the case's independent frequencies, the
+family alone as the base), beside the key's truth; ``--out`` writes the table as markdown.
+A development probe: frequency domain only, no held-out scoring.
 
 Usage: ``python benchmarks/r50_structure_noisy.py WORKDIR [case_019 case_063 ...]
 [--classes none,rotor_flapping] [--effects none,rotor_flapping,time_delay]
@@ -34,9 +36,9 @@ import jaxgwo  # noqa: F401  (float64)
 from jaxgwo._data import load_record
 from jaxgwo._diagnose import _DELAY_GRID_S
 from jaxgwo._diagnose_which import (_LEAD_LAG_BOX, _LEAD_LAG_STARTS, _SLOTS, _Z_HI, _Z_HI_STRUCTURE, _Z_LO,
-                                    _flipped_objective, delay_aware_start)  # fmt: skip
+                                    _flipped_objective, delay_aware_start, j_f_test_p)  # fmt: skip
 from jaxgwo._effects import rotor_flapping_response, sensor_lag_response, structural_mode_response, time_delay_response
-from jaxgwo._identify import IdentifySettings, _prepare, identify_channels
+from jaxgwo._identify import IdentifySettings, _prepare, identify_channels, independent_points
 
 # the blind study's identification settings (benchmarks/blind_diagnosis.py)
 IDS = IdentifySettings(method="wls-igwo+polish", wolves=12, iterations=30, n_frequencies=80, polish_steps=40,
@@ -151,6 +153,7 @@ def main() -> int:
         tr = [load_record(os.path.join(args.workdir, c, "train.csv"))]
         nominal = identify_channels({"lateral": tr}, IDS)["lateral"]
         prep = _prepare(tr, "lateral", IDS)
+        m_eff = max(independent_points(nominal.response), 1.0)  # as diagnose counts them
         x_nom = np.log(np.asarray(nominal.model.to_array(), float) * np.array([prep.sign, 1, 1, 1, 1]))
         ds = (delay_aware_start(prep.response, prep.objective, prep.sign, _DELAY_GRID_S, IDS.sk_iterations)
               if "time_delay" in effects else None)  # fmt: skip
@@ -173,7 +176,11 @@ def main() -> int:
                     cells.append("no finite fit")
                     continue
                 j, x = fits[e]
-                cells.append(f"{j:.2f}" + (f" ({_PARAM_TEXT[e](x[5 + ns :])})" if e != "none" else ""))
+                if e == "none" or fits["none"] is None:
+                    cells.append(f"{j:.2f}" + (f" ({_PARAM_TEXT[e](x[5 + ns :])})" if e != "none" else ""))
+                    continue
+                p = j_f_test_p(fits["none"][0], j, len(EFF[e][0]), m_eff)
+                cells.append(f"{j:.2f} ({_PARAM_TEXT[e](x[5 + ns :])}; p {p:.1g})")
             rows.append((c, truth["effect"], t_text, float(nominal.cost_J), sname, cells))
             print(c, truth["effect"], t_text, sname, " ".join(f"{e}: {x}" for e, x in zip(effects, cells)), flush=True)
     if args.out:
@@ -181,8 +188,9 @@ def main() -> int:
                  f"`python benchmarks/r50_structure_noisy.py {' '.join(sys.argv[1:])}` "
                  f"({(time.perf_counter() - t0) / 60:.1f} min).", "",
                  "`J` on TRAIN (the blind study's 80 analysis frequencies) of the paper model x each structure family "
-                 "alone (`none`) and x each effect, its fitted parameter in brackets. Frequency domain only: no "
-                 "held-out scoring and no significance test.", "",
+                 "alone (`none`) and x each effect, its fitted parameter and the p of the `J` F-test the diagnosis "
+                 "applies beside a base (the family alone as the base, the case's independent frequencies) in "
+                 "brackets. Frequency domain only: no held-out scoring.", "",
                  "| case | truth | true value | nominal J | family | " + " | ".join(effects) + " |",
                  "|---|---|---|---|---|" + "---|" * len(effects)]  # fmt: skip
         lines += [f"| {c} | {t} | {tv} | {jn:.2f} | {f} | " + " | ".join(cells) + " |" for c, t, tv, jn, f, cells in rows]
