@@ -176,11 +176,11 @@ def main() -> int:
                     cells.append("no finite fit")
                     continue
                 j, x = fits[e]
-                if e == "none" or fits["none"] is None:
-                    cells.append(f"{j:.2f}" + (f" ({_PARAM_TEXT[e](x[5 + ns :])})" if e != "none" else ""))
+                if e == "none":
+                    cells.append(f"{j:.2f}")
                     continue
-                p = j_f_test_p(fits["none"][0], j, len(EFF[e][0]), m_eff)
-                cells.append(f"{j:.2f} ({_PARAM_TEXT[e](x[5 + ns :])}; p {p:.1g})")
+                p = "" if fits["none"] is None else f"; p {j_f_test_p(fits['none'][0], j, len(EFF[e][0]), m_eff):.1g}"
+                cells.append(f"{j:.2f} ({_PARAM_TEXT[e](x[5 + ns :])}{p})")
             rows.append((c, truth["effect"], t_text, float(nominal.cost_J), sname, cells))
             print(c, truth["effect"], t_text, sname, " ".join(f"{e}: {x}" for e, x in zip(effects, cells)), flush=True)
     if args.out:

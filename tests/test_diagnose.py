@@ -2174,10 +2174,25 @@ def test_a_resonance_j_finds_needs_the_held_out_records_only_not_to_contradict_i
     assert _resonance_found_by_j((effect,), sc.params, sc, 1e-3) is found
 
 
+def _raise_the_mode_j_fits_floor(monkeypatch, dg):
+    """Raise the positive gap a ``structural_mode``'s ``J`` fit must close on the held-out
+    records to 0.5 (its output-error refits and the linear floor of ``as_linear`` keep
+    theirs): held-out records that hardly see the mode.  Returns the floor it replaced."""
+    own_floor = dg._held_out_floor
+
+    def raised(s, effects, time_domain, *args, **kw):
+        z_min, min_gap = own_floor(s, effects, time_domain, *args, **kw)
+        j_fit = tuple(effects) == ("structural_mode",) and not time_domain and not kw.get("as_linear")
+        return (z_min, 0.5) if j_fit else (z_min, min_gap)
+
+    monkeypatch.setattr(dg, "_held_out_floor", raised)
+    return own_floor
+
+
 def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monkeypatch):
     """The wiring of :func:`_resonance_found_by_j` inside ``diagnose``.  An 8.5 Hz resonance
     (pole damping 0.07, zeros 0.15) that ``J`` finds is made to fail its own held-out floor:
-    the positive gap every ``structural_mode`` needs is raised here to 0.5, above the gap
+    the positive gap a ``structural_mode``'s ``J`` fit needs is raised here to 0.5, above the gap
     its fit closes, standing in for held-out records that hardly see the mode (seed-277
     case_056: gap -0.036).  ``diagnose`` then scores it again on a linear ``J`` fit's floor;
     that fit is the verdict and says so (``passed_as_resonance_found_by_J``).  With the rule
@@ -2188,13 +2203,7 @@ def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monke
 
     train, val = _case("structural_mode", seed=2, freq_hz=8.5, zeta_p=0.07, zeta_z=0.15)
     settings = dataclasses.replace(SETTINGS, candidates=("structural_mode", "time_delay"))
-    own_floor = dg._held_out_floor
-
-    def raised(s, effects, *args, **kw):
-        z_min, min_gap = own_floor(s, effects, *args, **kw)
-        return (z_min, 0.5) if tuple(effects) == ("structural_mode",) and min_gap == 0.0 else (z_min, min_gap)
-
-    monkeypatch.setattr(dg, "_held_out_floor", raised)
+    own_floor = _raise_the_mode_j_fits_floor(monkeypatch, dg)
     d = diagnose(train, val, "lateral", settings)
     top = d.ranking[0]
     assert d.verdict == "structural_mode" and d.structure is None
@@ -2227,14 +2236,7 @@ def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_no
     from jaxgwo._diagnose_which import matched_filter_p
 
     train, val = _case("structural_mode", seed=2, freq_hz=8.5, zeta_p=0.07, zeta_z=0.15)
-    own_floor = dg._held_out_floor
-
-    def raised(s, effects, time_domain, *args, **kw):
-        z_min, min_gap = own_floor(s, effects, time_domain, *args, **kw)
-        j_fit = tuple(effects) == ("structural_mode",) and not time_domain and not kw.get("as_linear")
-        return (z_min, 0.5) if j_fit else (z_min, min_gap)
-
-    monkeypatch.setattr(dg, "_held_out_floor", raised)
+    _raise_the_mode_j_fits_floor(monkeypatch, dg)
     monkeypatch.setattr(dg, "_resonance_found_by_j", lambda *args, **kw: False)
     monkeypatch.setattr(dg, "_same_resonance", lambda *args, **kw: False)
     settings = dataclasses.replace(SETTINGS, candidates=("structural_mode", "time_delay"))
