@@ -1472,6 +1472,38 @@ def test_cross_coupling_sigma_counts_the_regressors_and_residuals_joint_correlat
     assert np.median(white) / spread < 0.4
 
 
+def test_coloured_residual_covariance_matches_the_exact_sandwich_of_an_ar1_residual():
+    """Two slow, correlated regressors and an AR(1) residual (rho 0.95, two records): the
+    least-squares estimate's exact covariance is (X'X)^-1 X' S X (X'X)^-1 with S the AR(1)
+    Toeplitz matrix per record (numpy.linalg, from the known process).  The estimate made
+    from one draw's fitted residuals lands within 25 % of it in sigma on every draw; the
+    white bound is under half of it."""
+    from scipy.linalg import toeplitz
+
+    from jaxgwo._diagnose_which import coloured_residual_covariance
+
+    rng = np.random.default_rng(7)
+    n, rho, dt = 3000, 0.95, 0.01
+    s = toeplitz(rho ** np.arange(n) / (1.0 - rho**2))  # unit innovations
+    xs = []
+    for _ in range(2):
+        a = np.asarray(pilot_corrections(jax.random.key(int(rng.integers(1 << 30))), n, 1.0 / dt, rms=1.0))
+        b = np.asarray(pilot_corrections(jax.random.key(int(rng.integers(1 << 30))), n, 1.0 / dt, rms=1.0))
+        xs.append(np.stack([a, 0.6 * a + b], axis=1))
+    m_inv = np.linalg.inv(sum(x.T @ x for x in xs))
+    exact = m_inv @ sum(x.T @ s @ x for x in xs) @ m_inv
+    chol = np.linalg.cholesky(s)
+    for _draw in range(4):
+        es = [chol @ rng.standard_normal(n) for _ in xs]
+        theta = m_inv @ sum(x.T @ e for x, e in zip(xs, es))
+        res = [e - x @ theta for x, e in zip(xs, es)]
+        cov = coloured_residual_covariance(xs, res, dt)
+        ratio = np.sqrt(np.diag(cov) / np.diag(exact))
+        assert np.all((ratio > 0.75) & (ratio < 1.25)), ratio
+        white = np.mean(np.concatenate(res) ** 2) * m_inv
+        assert np.all(np.sqrt(np.diag(white) / np.diag(exact)) < 0.5)
+
+
 def test_cross_coupling_gain_is_not_made_by_trim_errors():
     """No cross-coupling, 40 draws: the off-axis stick is taken relative to its trim (the
     mean of its first 0.5 s, so its mean over the record is not zero) and the residual

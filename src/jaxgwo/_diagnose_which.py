@@ -798,12 +798,55 @@ def _autocovariance(v: np.ndarray, max_lag: int) -> np.ndarray:
     return np.fft.irfft(f * np.conj(f), 2 * n)[: max_lag + 1]
 
 
+def coloured_residual_covariance(jacobians: Sequence[np.ndarray], residuals: Sequence[np.ndarray], dt: float,
+                                 max_lag_s: float = 5.0) -> np.ndarray:
+    r"""Covariance of a least-squares estimate whose residuals are coloured: the sandwich
+    :math:`M^{-1} B M^{-1}` of Morelli and Klein (J. Guidance 20(2), 1997), with
+    :math:`M = \sum_i J_i J_i^T` and
+    :math:`B = \sum_k w_k \gamma_e(k) \sum_i J_i J_{i+k}^T` over lags
+    :math:`|k| \le L` (``max_lag_s``, at most a quarter of the shortest record), Bartlett
+    weights :math:`w_k = 1 - |k|/(L+1)`.
+
+    ``jacobians`` are, per record, the ``(n, p)`` derivatives of the residual (or of the
+    model output: the sign cancels) with respect to the ``p`` estimated coordinates;
+    ``residuals`` the ``(n,)`` residuals at the estimate.  :math:`\gamma_e` is the
+    residuals' autocovariance pooled over records, per sample; no product runs across two
+    records.  A white residual gives back :math:`\gamma_e(0) M^{-1}`, the textbook bound,
+    which undercounts the error where the residual is slow (gusts, model form) and the
+    sensitivities are slow too.  Where the lag products' sampling error leaves ``B``
+    indefinite it is clipped to its positive part, and a variance that is still not
+    positive takes the white one."""
+    es = [np.asarray(e, float).ravel() for e in residuals]
+    js = [np.asarray(j, float).reshape(e.size, -1) for j, e in zip(jacobians, es)]
+    p = js[0].shape[1]
+    lag = max(1, min(int(round(max_lag_s / dt)), min(e.size for e in es) // 4))
+    g_e = sum(_autocovariance(e, lag) for e in es) / sum(e.size for e in es)
+    gam = np.zeros((lag + 1, p, p))
+    for j in js:
+        f = np.fft.rfft(j, 2 * j.shape[0], axis=0)
+        # [k, a, b] = sum_i j[i, a] j[i + k, b]
+        gam += np.fft.irfft(np.conj(f)[:, :, None] * f[:, None, :], 2 * j.shape[0], axis=0)[: lag + 1]
+    w = 1.0 - np.arange(lag + 1) / (lag + 1.0)
+    m_inv = np.linalg.pinv(gam[0])
+    b = g_e[0] * gam[0] + np.einsum("k,kab->ab", w[1:] * g_e[1:], gam[1:] + np.swapaxes(gam[1:], 1, 2))
+    lam, vec = np.linalg.eigh(0.5 * (b + b.T))
+    cov = m_inv @ ((vec * np.maximum(lam, 0.0)) @ vec.T) @ m_inv
+    white = g_e[0] * m_inv
+    d = np.diag(cov).copy()
+    bad = ~(d > 0.0)
+    if np.any(bad):
+        d[bad] = np.diag(white)[bad]
+        cov = cov.copy()
+        cov[np.diag_indices(p)] = d
+    return cov
+
+
 def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
                        max_lag_s: float = 5.0) -> TimeFit:
     r"""Least-squares gain ``g`` of ``y - G u = g (G u_off)`` on the identification records
     ``(t, u, u_off, y)``.
 
-    The 1-sigma is Bartlett's: the error of :math:`\sum_i x_i e_i` for a regressor ``x``
+    The 1-sigma is Bartlett's (:func:`coloured_residual_covariance` of one coordinate): the error of :math:`\sum_i x_i e_i` for a regressor ``x``
     and a coloured residual ``e`` is
     :math:`\sum_k w_k C_x(k) \gamma_e(k) / (\sum_i x_i^2)^2`, over lags up to
     ``max_lag_s`` with Bartlett weights :math:`w_k = 1 - k/(L+1)`.  The off-axis stick is
@@ -833,14 +876,7 @@ def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.nda
     g = float(sum(r @ x for r, x in zip(rc, xc))) / den if den > 0 else 0.0
     es = [r - g * x for r, x in zip(rc, xc)]
     dt = float(train[0][0][1] - train[0][0][0])
-    lag = max(1, min(int(round(max_lag_s / dt)), min(v.size for v in es) // 4))
-    c_x = sum(_autocovariance(x, lag) for x in xc)
-    g_e = sum(_autocovariance(v, lag) for v in es) / sum(v.size for v in es)
-    w = 1.0 - np.arange(lag + 1) / (lag + 1.0)
-    var = float(c_x[0] * g_e[0] + 2.0 * np.sum(w[1:] * c_x[1:] * g_e[1:]))
-    if not var > 0.0:  # the lag products' sampling error can swamp a near-white pair
-        var = float(c_x[0] * g_e[0])
-    sig = math.sqrt(var) / den if den > 0 else float("inf")
+    sig = math.sqrt(coloured_residual_covariance(xc, es, dt, max_lag_s)[0, 0]) if den > 0 else float("inf")
     mse = float(np.mean(np.concatenate(es) ** 2))
     return TimeFit(("cross_coupling",), {"cross_coupling": {"gain": g}}, {"cross_coupling": {"gain": sig}}, 1.0,
                    mse)  # fmt: skip
