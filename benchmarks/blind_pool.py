@@ -93,12 +93,44 @@ def load_draws(workdirs, blind=None) -> list[dict]:
             raise SystemExit(f"{w}: {len(lacking)} of {len(key)} cases have no diagnosis (first {lacking[0]}); "
                              "finish the draw (--reuse --resume) before pooling it.")
         rows = blind.score(w, results)["rows"]
-        draws.append({"workdir": w, "seed": draw.get("seed"), "attitude": bool(draw.get("attitude")), "rows": rows})
+        draws.append({"workdir": w, "seed": draw.get("seed"), "attitude": bool(draw.get("attitude")), "rows": rows,
+                      "bounds": bound_counts(rows)})  # fmt: skip
     seeds = [d["seed"] for d in draws]
     dup = sorted({s for s in seeds if seeds.count(s) > 1 and s is not None})
     if dup:
         raise SystemExit(f"seed(s) {dup} appear in more than one workdir or report: a draw counts once in a pool.")
     return draws
+
+
+def bound_counts(rows) -> dict:
+    """``{(effect, plant): [cases with a bound, truth within 1-sigma, within 2-sigma]}`` over
+    scored rows' ``bound_z`` (:func:`blind_diagnosis.bound_z`, right verdicts only), the
+    counts of a report's "Quoted bounds" table."""
+    out: dict = {}
+    for r in rows:
+        z = r.get("bound_z")
+        if z is not None:
+            c = out.setdefault((r["truth"], r["plant"]), [0, 0, 0])
+            c[0], c[1], c[2] = c[0] + 1, c[1] + (z < 1.0), c[2] + (z < 2.0)
+    return out
+
+
+def _report_bounds(lines: list[str], path: str) -> dict | None:
+    """:func:`bound_counts` read from a report's "## Quoted bounds" table; ``None`` where
+    the report predates that table."""
+    i = next((k for k, ln in enumerate(lines) if ln.startswith("| effect | plant | cases with a bound |")), None)
+    if i is None:
+        return None
+    out = {}
+    for ln in lines[i + 2 :]:
+        if not ln.startswith("|"):
+            break
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        try:
+            out[(cells[0], cells[1])] = [int(cells[2]), int(cells[3]), int(cells[4])]
+        except (IndexError, ValueError):
+            raise SystemExit(f"{path}: cannot read the quoted-bounds row {ln!r}; was the table edited by hand?") from None
+    return out
 
 
 _REPORT_COLUMNS = ("case", "plant", "truth", "verdict", "top-2", "second in ordering", "oracle z TRAIN, VAL")
@@ -171,7 +203,8 @@ def load_report(path: str, blind=None) -> dict:
                          "pool only reports of whole draws.")  # fmt: skip
     # the draw's own command line (a hand note above it may name the flag in passing)
     attitude = any(ln.startswith("`python benchmarks/blind_diagnosis.py") and "--attitude" in ln for ln in lines[:i])
-    return {"workdir": path, "seed": int(seed.group(1)), "attitude": attitude, "rows": rows}
+    return {"workdir": path, "seed": int(seed.group(1)), "attitude": attitude, "rows": rows,
+            "bounds": _report_bounds(lines, path)}
 
 
 def _cell(hits: int, n: int) -> str:
@@ -242,7 +275,38 @@ def pool_report(draws: list[dict], argv: list[str]) -> str:
     by_idf = Counter((r["plant"], r["truth"], r["verdict"]) for r in miss if identifiable(r))
     for (plant, truth, verdict), k in sorted(by.items(), key=lambda kv: (-kv[1], kv[0])):
         L.append(f"| {plant} | {truth} | {verdict} | {k} | {by_idf[(plant, truth, verdict)]} |")
-    return "\n".join(L) + "\n"
+    return "\n".join(L + _bounds_section(draws, classes)) + "\n"
+
+
+def _bounds_section(draws: list[dict], classes: list[str]) -> list[str]:
+    """The quoted bounds' coverage pooled over the draws that report it: a calibrated
+    1-sigma holds the truth on 68 % of right verdicts, a 2-sigma on 95 %."""
+    have = [d for d in draws if d.get("bounds") is not None]
+    if not have:
+        return []
+    tot: dict = {}
+    for d in have:
+        for k, c in d["bounds"].items():
+            t = tot.setdefault(k, [0, 0, 0])
+            for j in range(3):
+                t[j] += c[j]
+    L = ["", "## Quoted bounds", "",
+         f"Pooled over the {len(have)} of {len(draws)} draws whose diagnoses or reports give them (seeds "
+         f"{', '.join(str(d['seed']) for d in have)}): right verdicts only, the truth within the 1-sigma the "
+         "diagnosis quotes for the verdict's parameter (68 % where calibrated) and within 2-sigma (95 %), each "
+         "draw with the commit that diagnosed it.", "",
+         "| effect | plant | cases with a bound | truth within 1-sigma | within 2-sigma |", "|---|---|---|---|---|"]
+    for c in classes:
+        for plant in ("paper", "r50"):
+            if (c, plant) in tot:
+                n, a, b = tot[(c, plant)]
+                L.append(f"| {c} | {plant} | {n} | {_cell(a, n)} | {_cell(b, n)} |")
+    for plant in ("paper", "r50", None):
+        sel = [v for (_c, p), v in tot.items() if plant is None or p == plant]
+        n, a, b = (sum(v[j] for v in sel) for j in range(3))
+        if n:
+            L.append(f"| all | {plant or 'both'} | {n} | {_cell(a, n)} | {_cell(b, n)} |")
+    return L
 
 
 def main(argv=None) -> int:

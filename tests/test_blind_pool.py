@@ -161,3 +161,32 @@ def _plain(tmp_path) -> str:
     p = tmp_path / "plain.md"
     p.write_text("# not a report\n")
     return str(p)
+
+
+def test_quoted_bounds_read_back_from_a_report_and_pool_over_the_draws_that_give_them(pool, tmp_path):
+    """The report's "Quoted bounds" counts read back as bound_counts of the rows it was
+    written from; the pool sums them over the draws that give them (a draw from before that
+    table is named as left out) and prints the coverage with its Wilson interval."""
+    import types
+
+    import numpy as np
+
+    blind = pool._blind()
+    rows = [_full_row("case_000", "time_delay", "time_delay") | {"bound_z": 0.4},
+            _full_row("case_001", "time_delay", "time_delay") | {"bound_z": 1.5},
+            _full_row("case_002", "backlash", "backlash", "r50", mode=(7.0, 4.0)) | {"bound_z": 2.5},
+            _full_row("case_003", "none", "none") | {"bound_z": None}]
+    conf = np.zeros((len(blind.CLASSES), len(blind.CLASSES)), int)
+    args = types.SimpleNamespace(classes=",".join(r["truth"] for r in rows), reuse=True, seed=9, cases_per_effect=1,
+                                 r50_fraction=0.25, attitude=True, resume=False, out=str(tmp_path), report_name="qb")  # fmt: skip
+    blind.write_report({"rows": rows, "confusion": conf}, args, str(tmp_path), 60.0)
+    draw = pool.load_report(str(tmp_path / "qb.md"), blind)
+    assert draw["bounds"] == pool.bound_counts(rows) == {("time_delay", "paper"): [2, 1, 2], ("backlash", "r50"): [1, 0, 0]}
+    older = {"workdir": "old", "seed": 1, "attitude": True, "rows": [_row("time_delay", "time_delay")], "bounds": None}
+    other = {"workdir": "B", "seed": 2, "attitude": True, "rows": [_row("time_delay", "time_delay")],
+             "bounds": {("time_delay", "paper"): [3, 3, 3]}}
+    lines = pool.pool_report([older, draw, other], ["old", "qb.md", "B"]).splitlines()
+    assert any(ln.startswith("Pooled over the 2 of 3 draws") and "(seeds 9, 2)" in ln for ln in lines)
+    lo, hi = pool.wilson_interval(4, 5)
+    assert f"| time_delay | paper | 5 | 80 % (4/5; {100 * lo:.0f}-{100 * hi:.0f}) | 100 % (5/5; 57-100) |" in lines
+    assert any(ln.startswith("| all | both | 6 | 67 % (4/6;") for ln in lines)
