@@ -1698,8 +1698,7 @@ def diagnose(
                 if any(math.isfinite(e) for e in errs):
                     td_base = alts[int(np.argmin(errs))]
             *nl, null = fit_nonlinear_candidates(td_base, tt, nl_names, k_nl, wolves=settings.nonlinear_wolves,
-                                                 iterations=settings.nonlinear_iterations, correlation_time_s=tc,
-                                                 include_null=True)  # fmt: skip
+                                                 iterations=settings.nonlinear_iterations, include_null=True)  # fmt: skip
             null_spec = null.spec(td_base)
             specs[()] = td_base  # where the time-domain fits started (the combined step's too)
             val_null = [simulate_model(null_spec, t, u) for t, u, _o, _y in tv]
@@ -1719,7 +1718,7 @@ def diagnose(
             k = sum(len(EFFECTS[e].params) for e in own)
             x_j = _output_error_start(z, x)
             x_n = np.r_[z, np.log([nul["omega_s"], nul["zeta_s"], nul["tau"], nul["M"]])]
-            tdf = refit_linear_time_domain(fit_base, tt, fitted, [x_j, x_n], tc_tr, held=held, z_hi=z_hi,
+            tdf = refit_linear_time_domain(fit_base, tt, fitted, [x_j, x_n], held=held, z_hi=z_hi,
                                            screened=_time_domain_mode_starts(x_n) if mode_starts else ())  # fmt: skip
             if tdf is None:  # no start simulates: the J verdict stands alone
                 return own, sc, None, None, {"time_domain_path": 0.0, "td_failed": 1.0}
@@ -2079,7 +2078,7 @@ def diagnose(
             # with a gyro filter, estimated as it is alone: the pair's output-error refit from its J fit
             td_base = specs.get((), nom_spec)
             tdf = None if "sensor_lag" not in pair or held is not None else refit_linear_time_domain(
-                td_base, tt, pair, [_output_error_start(f.x[5:], f.x)], tc)  # fmt: skip
+                td_base, tt, pair, [_output_error_start(f.x[5:], f.x)])  # fmt: skip
             if tdf is not None:
                 td_spec = tdf.spec(td_base)
                 sc_td = score(base0, pair, tdf.params, tdf.sigma, td_spec, math.nan, base0.cost_J_sim, k2)
@@ -2097,7 +2096,7 @@ def diagnose(
             nl_part = [e for e in pair if e in NONLINEAR]
             if nl_part:
                 (f,) = fit_nonlinear_candidates(base, tt, nl_part[:1], k_comb, wolves=settings.nonlinear_wolves,
-                                                iterations=settings.nonlinear_iterations, correlation_time_s=tc)  # fmt: skip
+                                                iterations=settings.nonlinear_iterations)  # fmt: skip
                 base = f.spec(base)
                 eff, gain_scale = dict(base.effects), base.gain_scale
                 sigma |= f.sigma

@@ -827,6 +827,8 @@ def coloured_residual_covariance(jacobians: Sequence[np.ndarray], residuals: Seq
         # [k, a, b] = sum_i j[i, a] j[i + k, b]
         gam += np.fft.irfft(np.conj(f)[:, :, None] * f[:, None, :], 2 * j.shape[0], axis=0)[: lag + 1]
     w = 1.0 - np.arange(lag + 1) / (lag + 1.0)
+    lam_m, vec_m = np.linalg.eigh(gam[0])
+    unseen = lam_m <= 1e-12 * max(float(lam_m[-1]), 1e-300)
     m_inv = np.linalg.pinv(gam[0])
     b = g_e[0] * gam[0] + np.einsum("k,kab->ab", w[1:] * g_e[1:], gam[1:] + np.swapaxes(gam[1:], 1, 2))
     lam, vec = np.linalg.eigh(0.5 * (b + b.T))
@@ -838,7 +840,25 @@ def coloured_residual_covariance(jacobians: Sequence[np.ndarray], residuals: Seq
         d[bad] = np.diag(white)[bad]
         cov = cov.copy()
         cov[np.diag_indices(p)] = d
+    if np.any(unseen):  # a coordinate the residuals do not see is not estimated at all
+        cov = cov.copy()
+        for i in np.flatnonzero(np.any(np.abs(vec_m[:, unseen]) > 1e-6, axis=1)):
+            cov[i, :] = cov[:, i] = math.nan
+            cov[i, i] = math.inf
     return cov
+
+
+def _output_error_covariance(obj, x, jac, max_lag_s: float) -> np.ndarray:
+    """:func:`coloured_residual_covariance` of an output-error fit: ``obj``'s residuals at
+    ``x`` (:func:`_output_residual_vector`) and their Jacobian ``jac`` (rows as the
+    raveled ``(record, sample)`` residuals, one column per free coordinate), split into
+    records by ``obj.mask`` (each record's samples first, then padding)."""
+    mask = np.asarray(obj.mask)
+    r = np.asarray(_output_residual_vector(obj, jnp.asarray(x))).reshape(mask.shape)
+    jm = np.asarray(jac).reshape(*mask.shape, -1)
+    counts = [int(c) for c in np.sum(mask > 0, axis=1)]
+    return coloured_residual_covariance([jm[i, :c] for i, c in enumerate(counts)], [r[i, :c] for i, c in enumerate(counts)],
+                                        float(obj.dt), max_lag_s)  # fmt: skip
 
 
 def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
@@ -976,7 +996,7 @@ class LinearOutputError(eqx.Module):
 
 
 def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], starts: Sequence[np.ndarray],
-                             correlation_time_s: float = 0.1, held: Sequence[str] = (),
+                             max_lag_s: float = 5.0, held: Sequence[str] = (),
                              screened: Sequence[np.ndarray] = (), z_hi: np.ndarray | None = None) -> TimeFit | None:
     r"""Refit the paper model with the linear effects ``names`` (the base's own, such as a
     structure finding's mode, among them: those in ``held`` keep the starts' values, as
@@ -998,7 +1018,8 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     top) can still cut it.  A gyro filter trades against the servo along a long shallow
     valley, where a gradient polish stops short (6.8 Hz for 6.0 after 40 L-BFGS-B steps)
     and Gauss-Newton does not.  The 1-sigma is the Gauss-Newton one with all coordinates
-    free, the residual variance counted on ``n dt / T_c`` effective samples.  ``None``
+    free, the residuals' colour counted over lags up to ``max_lag_s``
+    (:func:`coloured_residual_covariance`).  ``None``
     when no start simulates to a finite output and converges without overflowing (a
     nominal whose servo ran away to 1e7 rad/s under a 48 ms delay overflows the
     discretisation)."""
@@ -1047,9 +1068,7 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     if best is None:
         return None
     c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(best)))
-    n_tot = float(np.sum(mask))
-    n_eff = max(2.0, n_tot * dt / max(correlation_time_s, dt))
-    cov = np.linalg.pinv(jac_best.T @ jac_best) * e0 * n_tot / n_eff
+    cov = _output_error_covariance(obj, best, jac_best, max_lag_s)
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     zsd = np.zeros(6)
     n_own = int(np.sum(own))
@@ -1220,7 +1239,7 @@ def fit_nonlinear_candidates(
     *,
     wolves: int = 10,
     iterations: int = 10,
-    correlation_time_s: float = 0.1,
+    max_lag_s: float = 5.0,
     include_null: bool = False,
     profile_points: int = 12,
 ) -> list[TimeFit]:
@@ -1241,8 +1260,11 @@ def fit_nonlinear_candidates(
     residuals (:func:`_nl_lm`) with the value, the servo, ``tau`` and ``M`` free (within a
     factor 2), the two best finished by L-BFGS-B (60 steps), the best kept.  The
     null is polished again wherever a candidate's servo and rotor fit better without
-    the nonlinearity, and every candidate nests the null.  The 1-sigma comes from the
-    curvature of the error in ``log value`` with ``n dt / T_c`` effective samples.
+    the nonlinearity, and every candidate nests the null.  The 1-sigma of ``log value``
+    is the Gauss-Newton one with the servo and rotor term free beside it (their trade
+    with the nonlinearity counted), the residuals' colour counted over lags up to
+    ``max_lag_s`` (:func:`coloured_residual_covariance`, the Jacobian by central
+    differences, :func:`_nl_residual_jacobian`).
     """
     names = [n for n in names if n in NONLINEAR]
     if not names and not include_null:
@@ -1357,12 +1379,6 @@ def fit_nonlinear_candidates(
             xn = _polish_nonlinear(objs[i], x0, lo_i, hi_i, False)
             if _nl_mse(objs[i], xn) < e_i:
                 best[i] = xn
-    dt = objs[0].dt
-    n_tot = float(np.sum(np.asarray(objs[0].mask)))
-    n_eff = max(2.0, n_tot * dt / max(correlation_time_s, dt))
-    h = 0.05
-    step = np.zeros(best.shape[1])
-    step[0] = h
     out = []
     for n, obj, xb in zip(rows, objs, best):
         c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(xb)))
@@ -1370,10 +1386,8 @@ def fit_nonlinear_candidates(
         if n == "null":
             out.append(TimeFit((), {}, {}, c, e0, refit))
             continue
-        ep = _nl_mse(obj, xb + step)
-        em = _nl_mse(obj, xb - step)
-        curv = (ep - 2 * e0 + em) / h**2
-        sig_log = math.sqrt(2.0 * e0 / n_eff / curv) if curv > 0 else float("inf")
+        var = _output_error_covariance(obj, xb, _nl_residual_jacobian(obj, jnp.asarray(xb)), max_lag_s)[0, 0]
+        sig_log = math.sqrt(var) if var > 0.0 else float("inf")
         v = math.exp(xb[0])
         pname = _NL_PARAM[n]
         out.append(TimeFit((n,), {n: {pname: v}}, {n: {pname: v * sig_log}}, c, e0, refit))
@@ -1530,6 +1544,15 @@ def _nl_lm(objs: NonlinearOutputError, xs, lo, hi, steps: int = 25):
         return x, f
 
     return jax.vmap(one)(objs, xs, lo, hi)
+
+
+@eqx.filter_jit
+def _nl_residual_jacobian(obj: NonlinearOutputError, x):
+    """Jacobian of :func:`_output_residual_vector` at ``x`` in every coordinate, by central
+    differences (:data:`_FD_STEP`, the ``2 n`` simulations batched as in :func:`_nl_lm`)."""
+    e = _FD_STEP * jnp.eye(x.size, dtype=x.dtype)
+    rs = jax.vmap(lambda v: _output_residual_vector(obj, v))(jnp.concatenate([x + e, x - e]))
+    return ((rs[: x.size] - rs[x.size :]) / (2.0 * _FD_STEP)).T
 
 
 def _nl_mse(obj: NonlinearOutputError | LinearOutputError, x) -> float:
