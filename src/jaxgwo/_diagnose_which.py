@@ -848,7 +848,7 @@ def coloured_residual_covariance(jacobians: Sequence[np.ndarray], residuals: Seq
     return cov
 
 
-def _output_error_covariance(obj, x, jac, max_lag_s: float) -> np.ndarray:
+def _output_error_covariance(obj, x, jac, dt: float, max_lag_s: float) -> np.ndarray:
     """:func:`coloured_residual_covariance` of an output-error fit: ``obj``'s residuals at
     ``x`` (:func:`_output_residual_vector`) and their Jacobian ``jac`` (rows as the
     raveled ``(record, sample)`` residuals, one column per free coordinate), split into
@@ -858,7 +858,7 @@ def _output_error_covariance(obj, x, jac, max_lag_s: float) -> np.ndarray:
     jm = np.asarray(jac).reshape(*mask.shape, -1)
     counts = [int(c) for c in np.sum(mask > 0, axis=1)]
     return coloured_residual_covariance([jm[i, :c] for i, c in enumerate(counts)], [r[i, :c] for i, c in enumerate(counts)],
-                                        float(obj.dt), max_lag_s)  # fmt: skip
+                                        dt, max_lag_s)  # fmt: skip
 
 
 def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
@@ -1068,7 +1068,7 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     if best is None:
         return None
     c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(best)))
-    cov = _output_error_covariance(obj, best, jac_best, max_lag_s)
+    cov = _output_error_covariance(obj, best, jac_best, dt, max_lag_s)
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     zsd = np.zeros(6)
     n_own = int(np.sum(own))
@@ -1386,7 +1386,7 @@ def fit_nonlinear_candidates(
         if n == "null":
             out.append(TimeFit((), {}, {}, c, e0, refit))
             continue
-        var = _output_error_covariance(obj, xb, _nl_residual_jacobian(obj, jnp.asarray(xb)), max_lag_s)[0, 0]
+        var = _output_error_covariance(obj, xb, _nl_residual_jacobian(obj, jnp.asarray(xb)), obj.dt, max_lag_s)[0, 0]
         sig_log = math.sqrt(var) if var > 0.0 else float("inf")
         v = math.exp(xb[0])
         pname = _NL_PARAM[n]
