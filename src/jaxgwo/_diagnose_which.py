@@ -829,7 +829,8 @@ def coloured_residual_covariance(jacobians: Sequence[np.ndarray], residuals: Seq
     w = 1.0 - np.arange(lag + 1) / (lag + 1.0)
     lam_m, vec_m = np.linalg.eigh(gam[0])
     unseen = lam_m <= 1e-12 * max(float(lam_m[-1]), 1e-300)
-    m_inv = np.linalg.pinv(gam[0])
+    seen = vec_m[:, ~unseen]
+    m_inv = (seen / lam_m[~unseen]) @ seen.T  # the pseudo-inverse, the unseen directions left out
     b = g_e[0] * gam[0] + np.einsum("k,kab->ab", w[1:] * g_e[1:], gam[1:] + np.swapaxes(gam[1:], 1, 2))
     lam, vec = np.linalg.eigh(0.5 * (b + b.T))
     cov = m_inv @ ((vec * np.maximum(lam, 0.0)) @ vec.T) @ m_inv
@@ -848,17 +849,17 @@ def coloured_residual_covariance(jacobians: Sequence[np.ndarray], residuals: Seq
     return cov
 
 
-def _output_error_covariance(obj, x, jac, dt: float, max_lag_s: float) -> np.ndarray:
+def _output_error_covariance(obj, residual, jac, dt: float, max_lag_s: float) -> np.ndarray:
     """:func:`coloured_residual_covariance` of an output-error fit: ``obj``'s residuals at
-    ``x`` (:func:`_output_residual_vector`) and their Jacobian ``jac`` (rows as the
-    raveled ``(record, sample)`` residuals, one column per free coordinate), split into
-    records by ``obj.mask`` (each record's samples first, then padding)."""
+    the estimate (:func:`_output_residual_vector`, raveled) and their Jacobian ``jac``
+    (one row per raveled ``(record, sample)`` residual, one column per free coordinate),
+    split into records by ``obj.mask`` (each record's samples first, then padding)."""
     mask = np.asarray(obj.mask)
-    r = np.asarray(_output_residual_vector(obj, jnp.asarray(x))).reshape(mask.shape)
+    r = np.asarray(residual).reshape(mask.shape)
     jm = np.asarray(jac).reshape(*mask.shape, -1)
     counts = [int(c) for c in np.sum(mask > 0, axis=1)]
-    return coloured_residual_covariance([jm[i, :c] for i, c in enumerate(counts)], [r[i, :c] for i, c in enumerate(counts)],
-                                        dt, max_lag_s)  # fmt: skip
+    return coloured_residual_covariance([jm[i, :c] for i, c in enumerate(counts)],
+                                        [r[i, :c] for i, c in enumerate(counts)], dt, max_lag_s)
 
 
 def fit_cross_coupling(base: ModelSpec, train: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
@@ -1036,7 +1037,7 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
     if act[2]:
         z_lo[2] = _FLAP_LO_TIME_DOMAIN_S
     z_hi = np.where(act, _Z_HI_STRUCTURE if z_hi is None else np.asarray(z_hi, float), _Z_NEUTRAL + 1e-9)
-    best, e_best, jac_best = None, math.inf, None
+    best, e_best, jac_best, res_best = None, math.inf, None, None
     starts = list(starts)
     if len(screened):
         errors = [_nl_mse(obj, np.asarray(x, float)) for x in screened]
@@ -1064,11 +1065,11 @@ def refit_linear_time_domain(base: ModelSpec, train, names: Sequence[str], start
         x[free] = sol.x
         e = _nl_mse(obj, x)
         if e < e_best:
-            best, e_best, jac_best = x, e, sol.jac
+            best, e_best, jac_best, res_best = x, e, sol.jac, sol.fun
     if best is None:
         return None
     c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(best)))
-    cov = _output_error_covariance(obj, best, jac_best, dt, max_lag_s)
+    cov = _output_error_covariance(obj, res_best, jac_best, dt, max_lag_s)
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     zsd = np.zeros(6)
     n_own = int(np.sum(own))
@@ -1386,7 +1387,8 @@ def fit_nonlinear_candidates(
         if n == "null":
             out.append(TimeFit((), {}, {}, c, e0, refit))
             continue
-        var = _output_error_covariance(obj, xb, _nl_residual_jacobian(obj, jnp.asarray(xb)), obj.dt, max_lag_s)[0, 0]
+        res, jac = _nl_residual_jacobian(obj, jnp.asarray(xb))
+        var = _output_error_covariance(obj, res, jac, obj.dt, max_lag_s)[0, 0]
         sig_log = math.sqrt(var) if var > 0.0 else float("inf")
         v = math.exp(xb[0])
         pname = _NL_PARAM[n]
@@ -1548,11 +1550,12 @@ def _nl_lm(objs: NonlinearOutputError, xs, lo, hi, steps: int = 25):
 
 @eqx.filter_jit
 def _nl_residual_jacobian(obj: NonlinearOutputError, x):
-    """Jacobian of :func:`_output_residual_vector` at ``x`` in every coordinate, by central
-    differences (:data:`_FD_STEP`, the ``2 n`` simulations batched as in :func:`_nl_lm`)."""
+    """:func:`_output_residual_vector` at ``x`` and its Jacobian in every coordinate, by
+    central differences (:data:`_FD_STEP`), the ``2 n + 1`` simulations batched as in
+    :func:`_nl_lm`."""
     e = _FD_STEP * jnp.eye(x.size, dtype=x.dtype)
-    rs = jax.vmap(lambda v: _output_residual_vector(obj, v))(jnp.concatenate([x + e, x - e]))
-    return ((rs[: x.size] - rs[x.size :]) / (2.0 * _FD_STEP)).T
+    rs = jax.vmap(lambda v: _output_residual_vector(obj, v))(jnp.concatenate([x[None], x + e, x - e]))
+    return rs[0], ((rs[1 : x.size + 1] - rs[x.size + 1 :]) / (2.0 * _FD_STEP)).T
 
 
 def _nl_mse(obj: NonlinearOutputError | LinearOutputError, x) -> float:
