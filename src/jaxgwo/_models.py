@@ -45,6 +45,7 @@ __all__ = [
     "canonicalize_paper_params",
     "paper_model_from_physical",
     "simulate_transfer_function",
+    "simulate_transfer_function_delayed",
     "ParameterMap",
     "QUARTIC_PARAM_NAMES",
 ]
@@ -54,6 +55,30 @@ QUARTIC_PARAM_NAMES = ("b0", "a1", "a2", "a3", "a4")
 
 def _jw(w):
     return jax.lax.complex(jnp.zeros_like(w), w)
+
+
+def _scaled_realisation(numerator, denominator, t):
+    """Controllable canonical form ``(A, B, C, D)`` of the frequency-scaled system and the
+    sample step in its scaled time (:func:`simulate_transfer_function`)."""
+    den = jnp.asarray(denominator, dtype=float)
+    num = jnp.asarray(numerator, dtype=float)
+    n = den.shape[0] - 1
+    num = jnp.concatenate([jnp.zeros(n + 1 - num.shape[0]), num])  # pad to length n+1
+    lead = den[0]
+    w0 = jnp.abs(den[-1] / lead) ** (1.0 / n)
+    w0 = jnp.where(jnp.isfinite(w0) & (w0 > 0), w0, 1.0)
+    # coefficient of s^k scaled by w0^k / (lead w0^n): monic in sigma
+    powers = jnp.arange(n, -1, -1, dtype=float)
+    scale = w0**powers / (lead * w0**n)
+    dens = den * scale
+    nums = num * scale
+    d_feed = nums[0]  # direct feedthrough (dens[0] == 1)
+    c_num = nums[1:] - d_feed * dens[1:]  # strictly proper remainder
+    # controllable canonical form: x' = A x + B u, y = C x + D u
+    A = jnp.zeros((n, n)).at[0, :].set(-dens[1:]).at[1:, :-1].set(jnp.eye(n - 1))
+    B = jnp.zeros((n, 1)).at[0, 0].set(1.0)
+    aug = jnp.zeros((n + 1, n + 1)).at[:n, :n].set(A).at[:n, n:].set(B)
+    return aug, c_num, d_feed, (t[1] - t[0]) * w0
 
 
 @jax.jit
@@ -73,26 +98,8 @@ def simulate_transfer_function(
     that time scaling.  Discretisation by the matrix exponential of the augmented
     :math:`[[A, B], [0, 0]]\,\Delta t`, then a ``lax.scan`` over samples.
     """
-    den = jnp.asarray(denominator, dtype=float)
-    num = jnp.asarray(numerator, dtype=float)
-    n = den.shape[0] - 1
-    num = jnp.concatenate([jnp.zeros(n + 1 - num.shape[0]), num])  # pad to length n+1
-    lead = den[0]
-    w0 = jnp.abs(den[-1] / lead) ** (1.0 / n)
-    w0 = jnp.where(jnp.isfinite(w0) & (w0 > 0), w0, 1.0)
-    # coefficient of s^k scaled by w0^k / (lead w0^n): monic in sigma
-    powers = jnp.arange(n, -1, -1, dtype=float)
-    scale = w0**powers / (lead * w0**n)
-    dens = den * scale
-    nums = num * scale
-    d_feed = nums[0]  # direct feedthrough (dens[0] == 1)
-    c_num = nums[1:] - d_feed * dens[1:]  # strictly proper remainder
-    # controllable canonical form: x' = A x + B u, y = C x + D u
-    A = jnp.zeros((n, n)).at[0, :].set(-dens[1:]).at[1:, :-1].set(jnp.eye(n - 1))
-    B = jnp.zeros((n, 1)).at[0, 0].set(1.0)
-    C = c_num
-    dt = (t[1] - t[0]) * w0
-    aug = jnp.zeros((n + 1, n + 1)).at[:n, :n].set(A).at[:n, n:].set(B)
+    aug, C, d_feed, dt = _scaled_realisation(numerator, denominator, t)
+    n = aug.shape[0] - 1
     e = jax.scipy.linalg.expm(aug * dt)
     Ad, Bd = e[:n, :n], e[:n, n]
 
@@ -100,6 +107,59 @@ def simulate_transfer_function(
         return Ad @ x + Bd * uk, C @ x + d_feed * uk
 
     _, y = jax.lax.scan(step, jnp.zeros(n), jnp.asarray(u, dtype=float))
+    return y
+
+
+@jax.jit
+def simulate_transfer_function_delayed(
+    numerator: Float[Array, " m1"],
+    denominator: Float[Array, " n1"],
+    t: Float[Array, " time"],
+    u: Float[Array, " time"],
+    delay: Float[Array, ""],
+) -> Float[Array, " time"]:
+    r"""Response of ``numerator/denominator`` to the zero-order-held samples ``u`` delayed
+    by ``delay`` seconds (zero before the record), exact at the sample times.
+
+    With :math:`\tau = (k + f)\,\Delta t`, :math:`0 \le f < 1`, the held input is
+    ``u[j - k - 1]`` over the first :math:`f\,\Delta t` of sample interval ``j`` and
+    ``u[j - k]`` over the rest, so (the modified z-transform)
+
+    .. math:: x_{j+1} = e^{A\Delta t} x_j + \Gamma((1-f)\Delta t)\,u_{j-k}
+              + e^{A(1-f)\Delta t}\,\Gamma(f\Delta t)\,u_{j-k-1},
+              \qquad \Gamma(h) = \int_0^h e^{A\sigma} d\sigma\, B,
+
+    both from matrix exponentials of the augmented :math:`[[A, B], [0, 0]]`
+    (:func:`simulate_transfer_function`'s realisation).  At ``f = 0`` it is that function
+    on ``u`` shifted by ``k`` samples.  Linear interpolation of the samples (the interval
+    average of the delayed input) has a kink at every whole sample of delay, where an
+    output-error fit of the delay can stop; this response is smooth in ``delay`` there
+    (continuously differentiable where the relative degree is at least two, as for the
+    paper model).
+    """
+    aug, C, d_feed, dt = _scaled_realisation(numerator, denominator, t)
+    n = aug.shape[0] - 1
+    s = jnp.asarray(delay, dtype=float) / (t[1] - t[0])
+    k = jnp.floor(s)
+    f = s - k
+    e_late = jax.scipy.linalg.expm(aug * ((1.0 - f) * dt))
+    e_early = jax.scipy.linalg.expm(aug * (f * dt))
+    Ad = e_late[:n, :n] @ e_early[:n, :n]
+    b_now, b_prev = e_late[:n, n], e_late[:n, :n] @ e_early[:n, n]
+    u = jnp.asarray(u, dtype=float)
+    idx = jnp.arange(u.shape[0]) - k.astype(jnp.arange(0).dtype)
+
+    def shifted(i):
+        return jnp.where(i >= 0, u[jnp.clip(i, 0, u.shape[0] - 1)], 0.0)
+
+    u_now, u_prev = shifted(idx), shifted(idx - 1)
+    u_at_sample = jnp.where(f > 0.0, u_prev, u_now)  # the held input at the sample instant itself
+
+    def step(x, uk):
+        now, prev, at = uk
+        return Ad @ x + b_now * now + b_prev * prev, C @ x + d_feed * at
+
+    _, y = jax.lax.scan(step, jnp.zeros(n), (u_now, u_prev, u_at_sample))
     return y
 
 
