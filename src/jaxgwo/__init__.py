@@ -68,7 +68,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "_models": (
         "PaperModel", "QuarticModel", "ParameterMap", "PhysicalDerivatives",
         "canonicalize_paper_params", "paper_model_from_physical",
-        "simulate_transfer_function",
+        "simulate_transfer_function", "simulate_transfer_function_delayed",
     ),
     "_cost": (
         "CiferObjective", "ComplexErrorObjective", "TimeDomainObjective", "cifer_cost",
@@ -192,6 +192,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from ._models import canonicalize_paper_params as canonicalize_paper_params
     from ._models import paper_model_from_physical as paper_model_from_physical
     from ._models import simulate_transfer_function as simulate_transfer_function
+    from ._models import simulate_transfer_function_delayed as simulate_transfer_function_delayed
     from ._cost import CiferObjective as CiferObjective
     from ._cost import ComplexErrorObjective as ComplexErrorObjective
     from ._cost import TimeDomainObjective as TimeDomainObjective
