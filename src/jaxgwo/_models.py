@@ -58,8 +58,9 @@ def _jw(w):
 
 
 def _scaled_realisation(numerator, denominator, t):
-    """Controllable canonical form ``(A, B, C, D)`` of the frequency-scaled system and the
-    sample step in its scaled time (:func:`simulate_transfer_function`)."""
+    """The frequency-scaled system's controllable canonical form as the augmented
+    ``[[A, B], [0, 0]]``, with ``C``, the feedthrough ``D`` and the sample step in scaled
+    time (:func:`simulate_transfer_function`)."""
     den = jnp.asarray(denominator, dtype=float)
     num = jnp.asarray(numerator, dtype=float)
     n = den.shape[0] - 1
