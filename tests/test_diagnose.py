@@ -1065,7 +1065,7 @@ def test_linear_output_error_matches_scipy_lsim():
     delayed (zero before the record), then servo x rotor with a flapping lag x gyro filter
     x structural mode, against scipy.signal.lsim of the same product driven by the held
     input on a grid ten times finer, where the 23 ms delay is a whole number of steps."""
-    import scipy.signal
+    from _references import lsim_of_delayed_held_input
 
     from jaxgwo._diagnose import _time_pairs
     from jaxgwo._diagnose_which import FREQUENCY_DOMAIN, LinearOutputError
@@ -1082,13 +1082,7 @@ def test_linear_output_error_matches_scipy_lsim():
     num = np.polymul([k * ws * ws * wc], [1.0, 2 * zz * wn, wn * wn])
     rotor = np.polyadd(np.polymul([1.0, 1.0 / tau, 0.0], [tf, 1.0]), [m])
     den = np.polymul(np.polymul(np.polymul(rotor, [1.0, 2 * zs * ws, ws * ws]), [1.0, wc]), [1.0, 2 * zp * wn, wn * wn])
-    fine = 10
-    shift = int(round(d * fine / (t[1] - t[0])))
-    assert shift == 23
-    u_fine = np.r_[np.zeros(shift), np.repeat(u, fine)[: u.size * fine - shift]]
-    t_fine = t[0] + np.arange(u.size * fine) * (t[1] - t[0]) / fine
-    _t, ref, _x = scipy.signal.lsim((num, den), u_fine, t_fine, interp=False)
-    ref = ref[::fine]
+    ref = lsim_of_delayed_held_input(num, den, t, u, d, fine=10)  # 23 ms: 23 fine steps
     scale = np.max(np.abs(ref))
     assert scale > 0.1
     assert np.max(np.abs(got - ref)) < 1e-8 * scale
