@@ -765,7 +765,8 @@ def main() -> int:
         settings = DiagnoseSettings(
             identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80,
                                       polish_steps=30, w_max=120.0),
-            wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6,
+            wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6, nonlinear_profile_points=6,
+            nonlinear_refine_rows=3, nonlinear_polish_steps=10,
         )  # fmt: skip
     else:
         settings = DiagnoseSettings()  # what `jaxgwo diagnose` runs by default

@@ -134,6 +134,7 @@ def test_diagnose_runs_the_configuration_the_blind_study_validates(monkeypatch, 
     assert (ids.method, ids.wolves, ids.iterations, ids.n_frequencies, ids.polish_steps, ids.w_max) == (
         "wls-igwo+polish", 12, 30, 80, 40, 120.0)
     assert (default.wolves, default.iterations, default.nonlinear_wolves, default.nonlinear_iterations) == (12, 30, 12, 15)
+    assert (default.nonlinear_profile_points, default.nonlinear_refine_rows, default.nonlinear_polish_steps) == (12, 6, 60)
     assert (sized.wolves, sized.iterations, sized.seed) == (16, 40, 3)
     assert (sized.identify.wolves, sized.identify.iterations, sized.identify.seed) == (16, 40, 3)
     assert sized.identify.n_frequencies == ids.n_frequencies and sized.alpha == default.alpha

@@ -32,8 +32,10 @@ MODEL = PaperModel.from_array(jnp.asarray(PaperPlant.default().lateral))
 SETTINGS = DiagnoseSettings(
     identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80, polish_steps=30,
                               w_max=120.0),
-    wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6,
+    wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6, nonlinear_profile_points=6,
+    nonlinear_refine_rows=3, nonlinear_polish_steps=10,
 )  # fmt: skip
+NL_SMALL = dict(wolves=6, iterations=6, profile_points=6, refine_rows=3, polish_steps=10)  # SETTINGS' nonlinear fits
 
 
 def _case(effect=None, seed=0, plant_effects=None, val_off_rms=0.02, **params):
@@ -667,7 +669,7 @@ def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
     train, _val = _case(None, seed=2)
     tt = _time_pairs(train, "lateral", SETTINGS.identify)
     base = ModelSpec(np.asarray(MODEL.to_array(), float))
-    *fits, null = fit_nonlinear_candidates(base, tt, key=jax.random.key(0), wolves=6, iterations=6, include_null=True)
+    *fits, null = fit_nonlinear_candidates(base, tt, key=jax.random.key(0), include_null=True, **NL_SMALL)
     # each candidate's box reaches where its nonlinearity no longer acts: it nests the null
     for f in fits:
         assert f.train_mse <= null.train_mse * (1 + 1e-9), f.effects
@@ -1130,7 +1132,7 @@ def test_linear_time_domain_check_finds_a_gyro_filter_and_passes_nothing_without
     tt = _time_pairs(train, "lateral", SETTINGS.identify)
     p = np.asarray(MODEL.to_array(), float)
     base = ModelSpec(p)
-    (null,) = fit_nonlinear_candidates(base, tt, [], key=jax.random.key(0), wolves=6, iterations=6, include_null=True)
+    (null,) = fit_nonlinear_candidates(base, tt, [], key=jax.random.key(0), include_null=True, **NL_SMALL)
     x0 = np.r_[0.0, np.log(20.0), 0.0, np.log(10.0), 0.0, 0.0, np.log([p[3], p[4], p[1], p[2]])]
     fit = refit_linear_time_domain(base, tt, ("sensor_lag",), [x0])
     n = sum(y.size for *_r, y in tt) * 0.01 / 0.1

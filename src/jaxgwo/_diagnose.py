@@ -137,7 +137,12 @@ class DiagnoseSettings:
 
     ``identify``: settings of the nominal identification (and of the frequency response the
     linear candidates are refitted on).  ``wolves`` / ``iterations``: the candidate refit's
-    IGWO.  A candidate beats noise when its identification evidence passes a test at level
+    IGWO; ``nonlinear_wolves`` / ``nonlinear_iterations`` the nonlinear candidates' packs,
+    ``nonlinear_profile_points``, ``nonlinear_refine_rows`` and ``nonlinear_polish_steps``
+    their profile, Levenberg-Marquardt and L-BFGS-B budgets
+    (:func:`jaxgwo._diagnose_which.fit_nonlinear_candidates`'s ``profile_points``,
+    ``refine_rows``, ``polish_steps``): those fits take most of a diagnosis's time, and the
+    test suite runs them smaller.  A candidate beats noise when its identification evidence passes a test at level
     ``alpha`` and the held-out records do not contradict it: the block z-score of its
     held-out squared-error reduction exceeds ``z_min`` and it closes more than ``min_gap``
     of the R^2 gap (:func:`jaxgwo._diagnose_which.score_candidate`).  The time-domain
@@ -302,6 +307,9 @@ class DiagnoseSettings:
     candidates: tuple[str, ...] = tuple(EFFECTS)
     nonlinear_wolves: int = 12
     nonlinear_iterations: int = 15
+    nonlinear_profile_points: int = 12
+    nonlinear_refine_rows: int = 6
+    nonlinear_polish_steps: int = 60
     seed: int = 0
 
     def __post_init__(self):
@@ -310,6 +318,11 @@ class DiagnoseSettings:
                       "and an omega")
         for name in ("iterations", "nonlinear_iterations"):
             _need_int(name, getattr(self, name), 1, "IGWO iterations of the refits")
+        _need_int("nonlinear_profile_points", self.nonlinear_profile_points, 2,
+                  "a profile needs both ends of the effect's box")
+        _need_int("nonlinear_refine_rows", self.nonlinear_refine_rows, 1,
+                  "each nonlinear candidate is refined from its best profile rows")
+        _need_int("nonlinear_polish_steps", self.nonlinear_polish_steps, 1, "L-BFGS-B steps of the nonlinear finish")
         for name in ("alpha_held_out_first", "alpha_coupling_gain", "alpha_resonance"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0.0 <= v < 1.0):
@@ -330,6 +343,13 @@ class DiagnoseSettings:
         unknown = [c for c in self.candidates if c not in EFFECTS]
         if unknown:
             raise ValueError(f"unknown candidate effect(s) {unknown}; choose from {', '.join(EFFECTS)}.")
+
+
+def _nonlinear_budget(settings: DiagnoseSettings) -> dict:
+    """:func:`jaxgwo._diagnose_which.fit_nonlinear_candidates`'s search sizes from ``settings``."""
+    return dict(wolves=settings.nonlinear_wolves, iterations=settings.nonlinear_iterations,
+                profile_points=settings.nonlinear_profile_points, refine_rows=settings.nonlinear_refine_rows,
+                polish_steps=settings.nonlinear_polish_steps)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -1697,8 +1717,8 @@ def diagnose(
                 errs = [_train_mse(a, tt) for a in alts]  # inf where it does not simulate
                 if any(math.isfinite(e) for e in errs):
                     td_base = alts[int(np.argmin(errs))]
-            *nl, null = fit_nonlinear_candidates(td_base, tt, nl_names, k_nl, wolves=settings.nonlinear_wolves,
-                                                 iterations=settings.nonlinear_iterations, include_null=True)  # fmt: skip
+            *nl, null = fit_nonlinear_candidates(td_base, tt, nl_names, k_nl, include_null=True,
+                                                 **_nonlinear_budget(settings))  # fmt: skip
             null_spec = null.spec(td_base)
             specs[()] = td_base  # where the time-domain fits started (the combined step's too)
             val_null = [simulate_model(null_spec, t, u) for t, u, _o, _y in tv]
@@ -2095,8 +2115,7 @@ def diagnose(
             sigma = {e: ranking[i].sigma.get(e, {}) for i, e in enumerate(pair)}
             nl_part = [e for e in pair if e in NONLINEAR]
             if nl_part:
-                (f,) = fit_nonlinear_candidates(base, tt, nl_part[:1], k_comb, wolves=settings.nonlinear_wolves,
-                                                iterations=settings.nonlinear_iterations)  # fmt: skip
+                (f,) = fit_nonlinear_candidates(base, tt, nl_part[:1], k_comb, **_nonlinear_budget(settings))
                 base = f.spec(base)
                 eff, gain_scale = dict(base.effects), base.gain_scale
                 sigma |= f.sigma

@@ -1246,6 +1246,8 @@ def fit_nonlinear_candidates(
     max_lag_s: float = 5.0,
     include_null: bool = False,
     profile_points: int = 12,
+    refine_rows: int | None = None,
+    polish_steps: int = 60,
 ) -> list[TimeFit]:
     """Fit each nonlinear effect's parameter with the servo and the rotor/fuselage term
     (and an output gain, in closed form) to the identification records ``(t, u, u_off, y)``
@@ -1260,9 +1262,10 @@ def fit_nonlinear_candidates(
     in order of the rate), one pack per point searching the servo within a factor
     2 of the nominal (damping down to 0.25) with the rotor term held at the null refit's,
     each pack started on a ladder of servo damping across its box.  The profile's
-    :data:`_LM_ROWS` lowest rows are refined together by Levenberg-Marquardt on the output
-    residuals (:func:`_nl_lm`) with the value, the servo, ``tau`` and ``M`` free (within a
-    factor 2), the two best finished by L-BFGS-B (60 steps), the best kept.  The
+    ``refine_rows`` lowest rows (:data:`_LM_ROWS` unless given) are refined together by
+    Levenberg-Marquardt on the output residuals (:func:`_nl_lm`) with the value, the servo,
+    ``tau`` and ``M`` free (within a factor 2), the two best finished by L-BFGS-B
+    (``polish_steps`` steps, as the null's finish), the best kept.  The
     null is polished again wherever a candidate's servo and rotor fit better without
     the nonlinearity, and every candidate nests the null.  The 1-sigma of ``log value``
     is the Gauss-Newton one with the servo and rotor term free beside it (their trade
@@ -1273,6 +1276,7 @@ def fit_nonlinear_candidates(
     names = [n for n in names if n in NONLINEAR]
     if not names and not include_null:
         return []
+    refine_rows = _LM_ROWS if refine_rows is None else refine_rows
     key = jax.random.key(0) if key is None else key
     u_scale = max(float(np.max(np.abs(u))) for _t, u, _o, _y in train)
     rows = names + (["null"] if include_null else [])
@@ -1306,7 +1310,7 @@ def fit_nonlinear_candidates(
     if float(r0.best_fitness) < _nl_mse(null_obj, x0):
         x0 = np.asarray(r0.best_position)
     x_null = _polish_nonlinear(null_obj, x0, null_lo, null_hi, True)
-    x_null = _polish_nonlinear(null_obj, x_null, null_lo, null_hi, True, "L-BFGS-B")
+    x_null = _polish_nonlinear(null_obj, x_null, null_lo, null_hi, True, "L-BFGS-B", polish_steps)
     # Profile search: the nominal fit has absorbed the nonlinearity into its servo (a rate
     # limit into more damping: 0.67 -> 1.35 seen), and at a servo without it the error is
     # flat in the value, so a pack searching value and servo together seldom reaches the
@@ -1342,7 +1346,7 @@ def fit_nonlinear_candidates(
     # Levenberg-Marquardt with the value, servo and rotor free (all in one batch), and the
     # two best results finished by L-BFGS-B, the best kept (case_032: 0.351 and 0.356,
     # below the truth's 0.362; case_059: 0.0771 and 0.0767).
-    sel = np.concatenate([np.flatnonzero(prow == i)[np.argsort(fit_p[prow == i], kind="stable")[:_LM_ROWS]]
+    sel = np.concatenate([np.flatnonzero(prow == i)[np.argsort(fit_p[prow == i], kind="stable")[:refine_rows]]
                           for i in range(len(names))] + [np.zeros(0, int)])  # fmt: skip
     best = []
     row_of, lo_s, hi_s = prow[sel], lo[prow[sel]], hi[prow[sel]]  # each refined row's candidate and box
@@ -1354,7 +1358,7 @@ def fit_nonlinear_candidates(
     for i in range(len(names)):
         mine = row_of == i
         starts = x_lm[mine][np.argsort(f_lm[mine], kind="stable")[:2]]
-        pol = [_polish_nonlinear(objs[i], x, lo[i], hi[i], False, "L-BFGS-B") for x in starts]
+        pol = [_polish_nonlinear(objs[i], x, lo[i], hi[i], False, "L-BFGS-B", polish_steps) for x in starts]
         best.append(min(pol, key=lambda x: _nl_mse(objs[i], x)))
     # The null polished from the nominal may stop in a servo minimum the nominal's absorbed
     # damping put it in, and a candidate would then beat it where its nonlinearity does not
