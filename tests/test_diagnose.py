@@ -662,6 +662,50 @@ def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch
     same_rows(calls[-2], calls[-1])  # the saturation's profile rows and the null's row
 
 
+def test_the_settings_nonlinear_budget_reaches_its_fits(monkeypatch):
+    """``DiagnoseSettings``' nonlinear budget is what ``fit_nonlinear_candidates`` runs: the
+    profile has ``profile_points`` rows per candidate (a rate limit twice as many), the
+    Levenberg-Marquardt batch ``refine_rows`` per candidate, and every L-BFGS-B finish
+    ``polish_steps`` steps."""
+    from jaxgwo import _diagnose_which as W
+    from jaxgwo._diagnose import _nonlinear_budget, _time_pairs
+    from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
+
+    budget = _nonlinear_budget(SETTINGS)
+    assert budget == NL_SMALL
+    seen = {"steps": [], "rows": None, "lm": None}
+
+    class Captured(Exception):
+        pass
+
+    polish, run_batch = W._polish_nonlinear, W.G.run_batch
+
+    def spy_polish(obj, x0, lo, hi, null, method="Nelder-Mead", maxiter=60):
+        if method == "L-BFGS-B":
+            seen["steps"].append(maxiter)
+        return polish(obj, x0, lo, hi, null, method, maxiter)
+
+    def spy_batch(cfg, objs, lo, hi, keys, **kw):
+        seen["rows"] = int(np.asarray(lo).shape[0])
+        return run_batch(cfg, objs, lo, hi, keys, **kw)
+
+    def spy_lm(objs, xs, lo, hi):
+        seen["lm"] = int(xs.shape[0])
+        raise Captured
+
+    monkeypatch.setattr(W, "_polish_nonlinear", spy_polish)
+    monkeypatch.setattr(W.G, "run_batch", spy_batch)
+    monkeypatch.setattr(W, "_nl_lm", spy_lm)
+    train, _val = _case(None, seed=2)
+    tt = _time_pairs(train, "lateral", SETTINGS.identify)
+    with pytest.raises(Captured):
+        fit_nonlinear_candidates(ModelSpec(np.asarray(MODEL.to_array(), float)), tt, ["rate_limit", "saturation"],
+                                 jax.random.key(0), include_null=True, **budget)  # fmt: skip
+    assert seen["rows"] == 3 * NL_SMALL["profile_points"] + 1  # rate limit x2, saturation, the null's row
+    assert seen["lm"] == 2 * NL_SMALL["refine_rows"]
+    assert seen["steps"] == [NL_SMALL["polish_steps"]]  # the null's finish, before the profile
+
+
 def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
     from jaxgwo._diagnose import _time_pairs
     from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
