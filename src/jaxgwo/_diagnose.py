@@ -142,8 +142,9 @@ class DiagnoseSettings:
     their profile, Levenberg-Marquardt and L-BFGS-B budgets
     (:func:`jaxgwo._diagnose_which.fit_nonlinear_candidates`'s ``profile_points``,
     ``refine_rows``, ``polish_steps``): those fits take most of a diagnosis's time, and the
-    test suite runs them smaller.  A candidate beats noise when its identification evidence passes a test at level
-    ``alpha`` and the held-out records do not contradict it: the block z-score of its
+    test suite runs them smaller.  A candidate beats noise when its identification
+    evidence passes a test at level ``alpha`` and the held-out records do not contradict
+    it: the block z-score of its
     held-out squared-error reduction exceeds ``z_min`` and it closes more than ``min_gap``
     of the R^2 gap (:func:`jaxgwo._diagnose_which.score_candidate`).  The time-domain
     candidates (nonlinear, cross-coupling), whose identification evidence is an output
