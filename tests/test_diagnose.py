@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from jaxgwo._data import make_record, save_record
-from jaxgwo._diagnose import DIAGNOSE_STAGES, DiagnoseSettings, diagnose
+from jaxgwo._diagnose import DIAGNOSE_STAGES, DiagnoseSettings, _nonlinear_budget, diagnose
 from jaxgwo._diagnose_where import amplitude_dependence, bands_from_flags, frequency_mismatch, residual_tests
 from jaxgwo._effects import EffectSet, time_delay_response
 from jaxgwo._identify import IdentifySettings
@@ -35,7 +35,7 @@ SETTINGS = DiagnoseSettings(
     wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6, nonlinear_profile_points=6,
     nonlinear_refine_rows=3, nonlinear_polish_steps=10,
 )  # fmt: skip
-NL_SMALL = dict(wolves=6, iterations=6, profile_points=6, refine_rows=3, polish_steps=10)  # SETTINGS' nonlinear fits
+NL_SMALL = _nonlinear_budget(SETTINGS)  # SETTINGS' nonlinear fits, for the tests that call them directly
 
 
 def _case(effect=None, seed=0, plant_effects=None, val_off_rms=0.02, **params):
@@ -668,11 +668,9 @@ def test_the_settings_nonlinear_budget_reaches_its_fits(monkeypatch):
     Levenberg-Marquardt batch ``refine_rows`` per candidate, and every L-BFGS-B finish
     ``polish_steps`` steps."""
     from jaxgwo import _diagnose_which as W
-    from jaxgwo._diagnose import _nonlinear_budget, _time_pairs
+    from jaxgwo._diagnose import _time_pairs
     from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
 
-    budget = _nonlinear_budget(SETTINGS)
-    assert budget == NL_SMALL
     seen = {"steps": [], "rows": None, "lm": None}
 
     class Captured(Exception):
@@ -700,10 +698,11 @@ def test_the_settings_nonlinear_budget_reaches_its_fits(monkeypatch):
     tt = _time_pairs(train, "lateral", SETTINGS.identify)
     with pytest.raises(Captured):
         fit_nonlinear_candidates(ModelSpec(np.asarray(MODEL.to_array(), float)), tt, ["rate_limit", "saturation"],
-                                 jax.random.key(0), include_null=True, **budget)  # fmt: skip
-    assert seen["rows"] == 3 * NL_SMALL["profile_points"] + 1  # rate limit x2, saturation, the null's row
-    assert seen["lm"] == 2 * NL_SMALL["refine_rows"]
-    assert seen["steps"] == [NL_SMALL["polish_steps"]]  # the null's finish, before the profile
+                                 jax.random.key(0), include_null=True, **NL_SMALL)  # fmt: skip
+    s = SETTINGS
+    assert seen["rows"] == 3 * s.nonlinear_profile_points + 1  # rate limit x2, saturation, the null's row
+    assert seen["lm"] == 2 * s.nonlinear_refine_rows
+    assert seen["steps"] == [s.nonlinear_polish_steps]  # the null's finish, before the profile
 
 
 def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():

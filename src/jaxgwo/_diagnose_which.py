@@ -1235,6 +1235,11 @@ def nonlinear_objectives(base: ModelSpec, train, names: Sequence[str]) -> list[N
     return out
 
 
+_LM_ROWS = 6
+"""How many of a nonlinear candidate's lowest profile rows :func:`fit_nonlinear_candidates`
+refines by Levenberg-Marquardt (its ``refine_rows`` default)."""
+
+
 def fit_nonlinear_candidates(
     base: ModelSpec,
     train: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
@@ -1246,7 +1251,7 @@ def fit_nonlinear_candidates(
     max_lag_s: float = 5.0,
     include_null: bool = False,
     profile_points: int = 12,
-    refine_rows: int | None = None,
+    refine_rows: int = _LM_ROWS,
     polish_steps: int = 60,
 ) -> list[TimeFit]:
     """Fit each nonlinear effect's parameter with the servo and the rotor/fuselage term
@@ -1262,7 +1267,7 @@ def fit_nonlinear_candidates(
     in order of the rate), one pack per point searching the servo within a factor
     2 of the nominal (damping down to 0.25) with the rotor term held at the null refit's,
     each pack started on a ladder of servo damping across its box.  The profile's
-    ``refine_rows`` lowest rows (:data:`_LM_ROWS` unless given) are refined together by
+    ``refine_rows`` lowest rows (:data:`_LM_ROWS` by default) are refined together by
     Levenberg-Marquardt on the output residuals (:func:`_nl_lm`) with the value, the servo,
     ``tau`` and ``M`` free (within a factor 2), the two best finished by L-BFGS-B
     (``polish_steps`` steps, as the null's finish), the best kept.  The
@@ -1276,7 +1281,6 @@ def fit_nonlinear_candidates(
     names = [n for n in names if n in NONLINEAR]
     if not names and not include_null:
         return []
-    refine_rows = _LM_ROWS if refine_rows is None else refine_rows
     key = jax.random.key(0) if key is None else key
     u_scale = max(float(np.max(np.abs(u))) for _t, u, _o, _y in train)
     rows = names + (["null"] if include_null else [])
@@ -1402,10 +1406,6 @@ def fit_nonlinear_candidates(
         out.append(TimeFit((n,), {n: {pname: v}}, {n: {pname: v * sig_log}}, c, e0, refit))
     return out
 
-
-_LM_ROWS = 6
-"""How many of a nonlinear candidate's lowest profile rows :func:`fit_nonlinear_candidates`
-refines by Levenberg-Marquardt."""
 
 _RATE_FRACTIONS = (0.002, 0.5)
 """The range of the fraction of samples a rate limit's profile points act on (geometric)."""
