@@ -948,6 +948,60 @@ def test_nonlinear_servo_against_a_fine_step_reference_of_the_simulators_stops(r
     assert float(rms_error(got, ref)) < 3e-3 * size
 
 
+def _rk4_servo(u, omega, zeta, rate, limit, width, substeps):
+    """Plain-Python reference of the diagnosis's servo rules (:func:`_nonlinear_servo`'s
+    docstring): RK4 at ``substeps`` steps per sample, each stop approached at the rate
+    ``1/h``, the position clipped to the end stop and followed through a dead band of
+    ``width``; the dead band's output after the sub-step that ends mid-sample."""
+    h = 1.0 / FS / substeps
+    stop = 1.0 / h
+
+    def deriv(pos, vel, cmd):
+        acc = omega * omega * (cmd - pos) - 2.0 * zeta * omega * vel
+        acc = min(max(acc, stop * (-rate - vel)), stop * (rate - vel))
+        v_out = min(max(vel, -rate), rate)
+        return min(max(v_out, stop * (-limit - pos)), stop * (limit - pos)), acc
+
+    pos = vel = swash = 0.0
+    out = np.zeros(u.size)
+    for k, cmd in enumerate(u):
+        for j in range(substeps):
+            k1 = deriv(pos, vel, cmd)
+            k2 = deriv(pos + 0.5 * h * k1[0], vel + 0.5 * h * k1[1], cmd)
+            k3 = deriv(pos + 0.5 * h * k2[0], vel + 0.5 * h * k2[1], cmd)
+            k4 = deriv(pos + h * k3[0], vel + h * k3[1], cmd)
+            pos += (h / 6.0) * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+            vel += (h / 6.0) * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+            end = min(max(pos, -limit), limit)
+            swash = min(max(swash, end - 0.5 * width), end + 0.5 * width)
+            if j == substeps // 2 - 1:
+                out[k] = swash
+    return out
+
+
+def test_batched_servo_equals_the_single_one_with_every_stop_and_the_dead_band():
+    """The servo vmapped over rows (its RK4 sub-steps a loop, the mid-sample position picked
+    inside it) against the single simulation (sub-steps unrolled) row by row, and both
+    against a plain-Python RK4 of the same rules (:func:`_rk4_servo`): the rate limit, the
+    end stop and the backlash's dead band acting, at two sub-step counts (so two
+    different sub-steps end mid-sample)."""
+    from jaxgwo._diagnose_which import _nonlinear_servo, _ServoParams
+
+    t = np.arange(int(6 * FS)) / FS
+    u = np.asarray(frequency_sweep(jnp.asarray(t), f_start_hz=0.5, f_stop_hz=8, duration_s=5, amplitude=0.2, start_s=0.5))
+    rows = np.array([[40.0, 0.6, 1.5, 0.15, 0.02], [30.0, 0.4, math.inf, 0.1, 0.0], [45.0, 0.7, 0.8, math.inf, 0.01]])
+    for substeps in (4, 6):
+        sp = _ServoParams(*(jnp.asarray(rows[:, i]) for i in range(5)))
+        batch = np.asarray(jax.vmap(lambda s: _nonlinear_servo(s, jnp.asarray(u), 1.0 / FS, substeps))(sp))  # noqa: B023
+        for row, got in zip(rows, batch):
+            one = np.asarray(_nonlinear_servo(_ServoParams(*(jnp.asarray(v) for v in row)), jnp.asarray(u), 1.0 / FS,
+                                              substeps, one=True))  # fmt: skip
+            size = float(np.max(np.abs(one)))
+            assert size > 0.05 and np.max(np.abs(got - one)) < 1e-13 * size, (substeps, row)
+            ref = _rk4_servo(u, *row, substeps=substeps)
+            assert np.max(np.abs(got - ref)) < 1e-12 * size, (substeps, row)
+
+
 @pytest.mark.parametrize("effect, value", [("rate_limit", 1.0), ("rate_limit", 2.0), ("saturation", 0.09)])
 def test_model_with_a_servo_nonlinearity_follows_the_simulator(effect, value):
     """The diagnosis's model of a paper plant with a rate limit or saturation

@@ -654,6 +654,10 @@ def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substep
     # Vmapped, the hoisted form is the faster where the batch is wide (300 rows: 252 ms
     # against 571 ms) and the two may differ in the last bit, so every batched caller
     # keeps it (a batch of 11, a central-difference gradient, would gain 56 -> 36 ms).
+    # The single simulation unrolls its ``substeps`` RK4 steps (a loop over them costs it
+    # 3.9 -> 7.4 ms); vmapped, a ``fori_loop`` over them gives XLA a body a quarter the
+    # size, which compiles in half the time and runs faster (5700 samples, 11 rows 32.9 ->
+    # 16.5 ms, 300 rows 277 -> 191 ms; the output within 3e-17 of the unrolled one).
     def deriv(pos, vel, cmd, consts):
         w2, c, rate, limit, _width = consts
         acc = w2 * (cmd - pos) - c * vel
@@ -675,8 +679,8 @@ def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substep
         if one:
             consts = jax.lax.optimization_barrier(consts)
         limit, width = consts[3], consts[4]
-        mid = None
-        for j in range(substeps):  # RK4 steps of h, then the backlash's dead band
+
+        def substep(state, swash):  # an RK4 step of h, then the backlash's dead band
             k1 = f(state, uk, consts)
             k2 = f(axpy(state, 0.5 * h, k1), uk, consts)
             k3 = f(axpy(state, 0.5 * h, k2), uk, consts)
@@ -684,9 +688,21 @@ def _nonlinear_servo(sp: _ServoParams, u: Float[Array, " n"], dt: float, substep
             state = jax.tree.map(lambda si, a1, a2, a3, a4: si + (h / 6.0) * (a1 + 2 * a2 + 2 * a3 + a4),
                                  state, k1, k2, k3, k4)  # fmt: skip
             out = jnp.clip(state[0], -limit, limit)
-            swash = jnp.clip(swash, out - 0.5 * width, out + 0.5 * width)
-            if j == substeps // 2 - 1:
-                mid = swash
+            return state, jnp.clip(swash, out - 0.5 * width, out + 0.5 * width)
+
+        half = substeps // 2 - 1  # the sub-step that ends mid-way through the sample
+        if one:  # unrolled (see above)
+            mid = None
+            for j in range(substeps):
+                state, swash = substep(state, swash)
+                mid = swash if j == half else mid
+        else:  # rolled (see above)
+
+            def body(j, c):
+                state, swash = substep(c[0], c[1])
+                return state, swash, jnp.where(j == half, swash, c[2])
+
+            state, swash, mid = jax.lax.fori_loop(0, substeps, body, (state, swash, swash))
         return (state, swash, consts), mid
 
     z = jnp.zeros(())
