@@ -759,17 +759,9 @@ def main() -> int:
 
     import jaxgwo  # noqa: F401  (float64)
     from jaxgwo._diagnose import DiagnoseSettings
-    from jaxgwo._identify import IdentifySettings
 
-    if args.quick:
-        settings = DiagnoseSettings(
-            identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80,
-                                      polish_steps=30, w_max=120.0),
-            wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6, nonlinear_profile_points=6,
-            nonlinear_refine_rows=3, nonlinear_polish_steps=10,
-        )  # fmt: skip
-    else:
-        settings = DiagnoseSettings()  # what `jaxgwo diagnose` runs by default
+    # --quick: the test suite's searches; otherwise what `jaxgwo diagnose` runs by default
+    settings = DiagnoseSettings.quick() if args.quick else DiagnoseSettings()
     # one normal form of --classes, read by phase 1 and by the report alike
     args.classes = ",".join(c.strip() for c in args.classes.split(",") if c.strip())
     if not args.classes:

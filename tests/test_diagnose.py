@@ -18,7 +18,6 @@ from jaxgwo._data import make_record, save_record
 from jaxgwo._diagnose import DIAGNOSE_STAGES, DiagnoseSettings, _nonlinear_budget, diagnose
 from jaxgwo._diagnose_where import amplitude_dependence, bands_from_flags, frequency_mismatch, residual_tests
 from jaxgwo._effects import EffectSet, time_delay_response
-from jaxgwo._identify import IdentifySettings
 from jaxgwo._metrics import rms_error
 from jaxgwo._models import PaperModel
 from jaxgwo._plants import PaperPlant
@@ -29,12 +28,7 @@ from jaxgwo._spectral import FrequencyResponse
 FS = 100.0
 D = 25.0  # sweep length: each half-record (one amplitude) still resolves 1 rad/s... nearly
 MODEL = PaperModel.from_array(jnp.asarray(PaperPlant.default().lateral))
-SETTINGS = DiagnoseSettings(
-    identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80, polish_steps=30,
-                              w_max=120.0),
-    wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6, nonlinear_profile_points=6,
-    nonlinear_refine_rows=3, nonlinear_polish_steps=10,
-)  # fmt: skip
+SETTINGS = DiagnoseSettings.quick()  # the CI-sized searches, every threshold the default's
 NL_SMALL = _nonlinear_budget(SETTINGS)  # SETTINGS' nonlinear fits, for the tests that call them directly
 
 
@@ -660,6 +654,25 @@ def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch
         with pytest.raises(Captured):
             fit_nonlinear_candidates(base, tt, names, **kw)
     same_rows(calls[-2], calls[-1])  # the saturation's profile rows and the null's row
+
+
+def test_quick_settings_shrink_the_searches_and_keep_every_threshold():
+    """``DiagnoseSettings.quick()`` (this suite's ``SETTINGS``, the blind study's
+    ``--quick``) differs from the defaults in search sizes only, each smaller, and in the
+    nominal fit's sizes only; ``changes`` replace fields and are validated like any."""
+    sizes = {"wolves", "iterations", "nonlinear_wolves", "nonlinear_iterations", "nonlinear_profile_points",
+             "nonlinear_refine_rows", "nonlinear_polish_steps"}  # fmt: skip
+    quick, default = DiagnoseSettings.quick(), DiagnoseSettings()
+    differ = {f.name for f in dataclasses.fields(DiagnoseSettings) if getattr(quick, f.name) != getattr(default, f.name)}
+    assert differ == sizes | {"identify"}
+    assert all(getattr(quick, name) < getattr(default, name) for name in sizes)
+    a, b = quick.identify, default.identify
+    assert (a.wolves, a.iterations, a.polish_steps) == (10, 20, 30) and (b.wolves, b.iterations, b.polish_steps) == (12, 30, 40)
+    assert dataclasses.replace(a, wolves=b.wolves, iterations=b.iterations, polish_steps=b.polish_steps) == b
+    assert DiagnoseSettings.quick(seed=4, candidates=("time_delay",)) == dataclasses.replace(
+        quick, seed=4, candidates=("time_delay",))
+    with pytest.raises(ValueError, match="nonlinear_wolves"):
+        DiagnoseSettings.quick(nonlinear_wolves=3)
 
 
 def test_the_settings_nonlinear_budget_reaches_its_fits(monkeypatch):

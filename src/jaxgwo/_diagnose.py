@@ -345,6 +345,22 @@ class DiagnoseSettings:
         if unknown:
             raise ValueError(f"unknown candidate effect(s) {unknown}; choose from {', '.join(EFFECTS)}.")
 
+    @classmethod
+    def quick(cls, **changes) -> DiagnoseSettings:
+        """The small searches the test suite and the blind study's ``--quick`` run: the
+        nominal fit 10 wolves x 20 iterations (30 polish steps), the linear candidates 10 x
+        25, the nonlinear ones 6 x 6 with 6 profile points, 3 refined rows and 10 L-BFGS-B
+        steps.  Every threshold is the default's, so a quick verdict is the default's rules
+        on a shorter search (the blind study's numbers are the defaults').  ``changes``
+        replace fields as :func:`dataclasses.replace` does."""
+        small = cls(
+            identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80,
+                                      polish_steps=30, w_max=120.0),
+            wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6, nonlinear_profile_points=6,
+            nonlinear_refine_rows=3, nonlinear_polish_steps=10,
+        )  # fmt: skip
+        return dataclasses.replace(small, **changes)
+
 
 def _nonlinear_budget(settings: DiagnoseSettings) -> dict:
     """:func:`jaxgwo._diagnose_which.fit_nonlinear_candidates`'s search sizes from ``settings``."""
