@@ -658,8 +658,8 @@ def test_a_candidates_fit_does_not_depend_on_the_others_in_its_batch(monkeypatch
 
 def test_quick_settings_shrink_the_searches_and_keep_every_threshold():
     """``DiagnoseSettings.quick()`` (this suite's ``SETTINGS``, the blind study's
-    ``--quick``) differs from the defaults in search sizes only, each smaller, and in the
-    nominal fit's sizes only; ``changes`` replace fields and are validated like any."""
+    ``--quick``) differs from the defaults in the search sizes only, each smaller (the
+    nominal fit's too); ``changes`` replace fields and are validated like any."""
     sizes = {"wolves", "iterations", "nonlinear_wolves", "nonlinear_iterations", "nonlinear_profile_points",
              "nonlinear_refine_rows", "nonlinear_polish_steps"}  # fmt: skip
     quick, default = DiagnoseSettings.quick(), DiagnoseSettings()
@@ -1013,6 +1013,8 @@ def test_batched_servo_equals_the_single_one_with_every_stop_and_the_dead_band()
             assert size > 0.05 and np.max(np.abs(got - one)) < 1e-13 * size, (substeps, row)
             ref = _rk4_servo(u, *row, substeps=substeps)
             assert np.max(np.abs(got - ref)) < 1e-12 * size, (substeps, row)
+            free = _rk4_servo(u, *row[:2], math.inf, math.inf, 0.0, substeps=substeps)
+            assert np.max(np.abs(free - ref)) > 0.05 * size, (substeps, row)  # the stops and band act
 
 
 @pytest.mark.parametrize("effect, value", [("rate_limit", 1.0), ("rate_limit", 2.0), ("saturation", 0.09)])
