@@ -350,12 +350,13 @@ class DiagnoseSettings:
         """The small searches the test suite and the blind study's ``--quick`` run: the
         nominal fit 10 wolves x 20 iterations (30 polish steps), the linear candidates 10 x
         25, the nonlinear ones 6 x 6 with 6 profile points, 3 refined rows and 10 L-BFGS-B
-        steps.  Every threshold is the default's, so a quick verdict is the default's rules
-        on a shorter search (the blind study's numbers are the defaults').  ``changes``
-        replace fields as :func:`dataclasses.replace` does."""
-        small = cls(
-            identify=IdentifySettings(method="wls-igwo+polish", wolves=10, iterations=20, n_frequencies=80,
-                                      polish_steps=30, w_max=120.0),
+        steps.  It is the defaults with those sizes replaced, so every threshold is the
+        default's and a quick verdict is the default's rules on a shorter search (the blind
+        study's numbers are the defaults').  ``changes`` replace fields as
+        :func:`dataclasses.replace` does."""
+        default = cls()
+        small = dataclasses.replace(
+            default, identify=dataclasses.replace(default.identify, wolves=10, iterations=20, polish_steps=30),
             wolves=10, iterations=25, nonlinear_wolves=6, nonlinear_iterations=6, nonlinear_profile_points=6,
             nonlinear_refine_rows=3, nonlinear_polish_steps=10,
         )  # fmt: skip
