@@ -1296,6 +1296,7 @@ def test_time_delay_case_is_found_estimated_and_reported():
     ms, sig_ms = 1e3 * top.params["time_delay"]["delay_s"], 1e3 * top.sigma["time_delay"]["delay_s"]
     assert f"time_delay = {ms:.1f} ms (+-{sig_ms:.1f})" in d.summary()
     assert "model-form bias" not in d.summary()  # no structure finding: the model form is the plant's
+    assert "the airframe's own included" not in d.summary()  # the coupling caveat: coupling verdicts only
     _check_json_report_schema(d)
     # the summary sets the null refit (no effect) beside the verdict's model: below it, level
     # with it to the 3 quoted decimals, above it
@@ -1658,7 +1659,8 @@ def test_cross_coupling_gain_is_not_made_by_trim_errors():
 def test_cross_coupling_case_is_found_against_the_time_domain_null_refit():
     """The off-axis stick drives the on-axis plant (gain 0.15).  The gain is fitted on top
     of the null refit (the paper model refitted by output error), whose error it must cut:
-    it is the verdict, estimated within 3 sigma, and raises the held-out R^2."""
+    it is the verdict, estimated within 3 sigma, and raises the held-out R^2.  The summary
+    says that the gain counts the airframe's own coupling too."""
     train, val = _case("cross_coupling", seed=3, gain=0.15)
     d = diagnose(train, val, "lateral", SETTINGS)
     assert d.verdict == "cross_coupling"
@@ -1666,6 +1668,8 @@ def test_cross_coupling_case_is_found_against_the_time_domain_null_refit():
     g, sg = top.params["cross_coupling"]["gain"], top.sigma["cross_coupling"]["gain"]
     assert abs(g - 0.15) < 3 * sg and sg < 0.05
     assert top.train_p < SETTINGS.alpha and top.val_r2 > d.nominal_r2
+    # the summary says the gain includes the airframe's own coupling (an R-50's B_lon)
+    assert "the airframe's own included" in d.summary()
 
 
 def test_f_test_against_scipy():

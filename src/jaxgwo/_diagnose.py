@@ -96,6 +96,19 @@ REFIT_MARGIN_R2 = 1e-3
 """Held-out R^2 difference below which the summary counts the null refit and another model
 as level: the summary quotes R^2 to 3 decimals."""
 
+_AIRFRAME_COUPLING_NOTE = (
+    "The gain counts every path from the off-axis stick into this axis as mixing ahead of the servo, the "
+    "airframe's own included: a rotor whose flapping the other cyclic drives directly (the R-50's B_lon, 0.099 of "
+    "B_lat in the published model) adds its share. On the blind study's R-50 variants the gain read "
+    "0.025-0.077 above the mixing drawn (8 of 8 cases)."
+)
+"""The summary's caveat beside a ``cross_coupling`` verdict.  The R-50's lateral flapping
+equation has ``B_lat delta_lat + B_lon delta_lon``, exactly a mixing of the longitudinal
+stick at ``B_lon / B_lat`` on that path, beside the paths through the longitudinal flapping.
+Measured on the stored diagnoses of fresh seeds 311, 313, 317 and 331
+(``docs/diagnosis-record.md``, session 54): the eight R-50 coupling cases' gains lie
++0.025 to +0.077 above the drawn gain, the paper plants' on both sides of it."""
+
 SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the data almost equally well; ..."
     frozenset({"sensor_lag", "rotor_flapping"}): (
         "no cyclic excitation separates them: with the paper parameters refitted, a gyro filter and an in-loop "
@@ -597,6 +610,8 @@ class Diagnosis:
                     f"{top.detail['J_over_pair_J']:.2f} times the pair's): the pair imitated the nonlinearity's bend "
                     "of the response, and is taken for no mode of the airframe."
                 )
+            if top.effects == ("cross_coupling",):
+                lines.append(_AIRFRAME_COUPLING_NOTE)
             if top.detail.get("passed_on_held_out_records"):
                 lines.append(
                     f"The held-out records carry its evidence (z {top.z_score:.1f}); the identification records "
