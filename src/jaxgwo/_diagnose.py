@@ -610,7 +610,7 @@ class Diagnosis:
                     f"{top.detail['J_over_pair_J']:.2f} times the pair's): the pair imitated the nonlinearity's bend "
                     "of the response, and is taken for no mode of the airframe."
                 )
-            if top.effects == ("cross_coupling",):
+            if self.verdict == "cross_coupling":
                 lines.append(_AIRFRAME_COUPLING_NOTE)
             if top.detail.get("passed_on_held_out_records"):
                 lines.append(
