@@ -953,6 +953,22 @@ def _gain_about_record_means(s: Float[Array, "rec n"], y: Float[Array, "rec n"],
     return c, (yy - 2 * c * ys + c * c * ss) / jnp.sum(mask), sc, yc
 
 
+def _mode_rows(modes) -> Float[Array, "pairs 3"]:
+    """``(freq_hz, zeta_p, zeta_z)`` pole pairs as rows of an array (none: zero rows)."""
+    return jnp.reshape(jnp.asarray(modes, dtype=jnp.float64), (-1, 3))
+
+
+def _pole_pair_polynomials(modes: Float[Array, "pairs 3"]):
+    """Numerator and denominator of the pole pairs ``modes`` in product, as
+    :func:`_post_filter` forms them for its modes (the same products, in the same order)."""
+    num, den = jnp.ones((1,)), jnp.ones((1,))
+    for freq_hz, zeta_p, zeta_z in modes:
+        wn = 2.0 * jnp.pi * freq_hz
+        num = jnp.convolve(num, jnp.stack([jnp.ones(()), 2.0 * zeta_z * wn, wn * wn]))
+        den = jnp.convolve(den, jnp.stack([jnp.ones(()), 2.0 * zeta_p * wn, wn * wn]))
+    return num, den
+
+
 class LinearOutputError(eqx.Module):
     r"""Mean squared output error on the identification records of the paper model with
     the linear effects ``names``, the servo and rotor refitted with them and the output
@@ -978,8 +994,11 @@ class LinearOutputError(eqx.Module):
     t: Float[Array, " n"]
     gain: Float[Array, ""]
     names: tuple[str, ...] = eqx.field(static=True)
-    fixed_modes: tuple[tuple[float, float, float], ...] = eqx.field(static=True, default=())
-    """Pole pairs held as they are (:attr:`ModelSpec.fixed_modes`)."""
+    fixed_modes: Float[Array, "pairs 3"] = eqx.field(converter=_mode_rows, default=())
+    """Pole pairs held as they are (:attr:`ModelSpec.fixed_modes`), one ``(freq_hz,
+    zeta_p, zeta_z)`` row each.  An array, not a static field: the compiled refit is
+    keyed on the number of pairs only, so a structure finding's pair at new values (the
+    next case, the next record) reuses it."""
 
     def transfer_function(self, x):
         z = x[:6]
@@ -992,13 +1011,12 @@ class LinearOutputError(eqx.Module):
         num = jnp.reshape(self.gain * ws * ws, (1,))
         if "sensor_lag" in self.names:
             den = jnp.convolve(den, jnp.stack([1.0 / (2.0 * jnp.pi * jnp.exp(z[1])), jnp.ones(())]))
-        if "structural_mode" in self.names:
-            wn, zp, zz = 2.0 * jnp.pi * jnp.exp(z[3]), jnp.exp(z[4]), jnp.exp(z[5])
-            num = jnp.convolve(num, jnp.stack([jnp.ones(()), 2.0 * zz * wn, wn * wn]))
-            den = jnp.convolve(den, jnp.stack([jnp.ones(()), 2.0 * zp * wn, wn * wn]))
-        if self.fixed_modes:  # static: no work added for the candidates without them
-            fnum, fden = _post_filter({}, self.fixed_modes)
-            num, den = jnp.convolve(num, jnp.asarray(fnum)), jnp.convolve(den, jnp.asarray(fden))
+        pairs = [jnp.exp(z[3:6])[None]] if "structural_mode" in self.names else []
+        if self.fixed_modes.shape[0]:  # static: no work added for the candidates without them
+            pairs.append(self.fixed_modes)
+        for modes in pairs:  # the resonance, then the held pairs' product
+            pnum, pden = _pole_pair_polynomials(modes)
+            num, den = jnp.convolve(num, pnum), jnp.convolve(den, pden)
         return num, den
 
     def outputs(self, x) -> Float[Array, "rec n"]:
