@@ -100,7 +100,7 @@ _AIRFRAME_COUPLING_NOTE = (
     "The gain counts every path from the off-axis stick into this axis as mixing ahead of the servo, the "
     "airframe's own included: a rotor whose flapping the other cyclic drives directly (the R-50's B_lon, 0.099 of "
     "B_lat in the published model) adds its share. On the blind study's R-50 variants the gain read "
-    "0.005-0.119 above the mixing drawn (17 of 17 cases)."
+    "above the mixing drawn on 18 of 19 cases (median 0.037 above; from 0.014 below to 0.119 above)."
 )
 """The summary's caveat beside a ``cross_coupling`` verdict.  The R-50's lateral flapping
 equation has ``B_lat delta_lat + B_lon delta_lon``, exactly a mixing of the longitudinal
@@ -108,7 +108,8 @@ stick at ``B_lon / B_lat`` on that path, beside the paths through the longitudin
 Measured on the stored diagnoses of fresh seeds 311, 313, 317 and 331, then out of sample
 on 337 and 347 (``docs/diagnosis-record.md``, session 54): the seventeen R-50 coupling
 cases' gains lie +0.005 to +0.119 above the drawn gain, the 31 paper plants' on both sides
-of it."""
+of it.  Seed 349, drawn after that (session 55), adds two R-50 couplings at +0.030 and
+-0.014, the first below."""
 
 SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the data almost equally well; ..."
     frozenset({"sensor_lag", "rotor_flapping"}): (
