@@ -1224,6 +1224,42 @@ def test_linear_output_error_matches_scipy_lsim():
     assert np.max(np.abs(np.asarray(obj.outputs(jnp.asarray(x0)))[0] - ref)) > 0.05 * scale
 
 
+def test_model_with_a_delay_holds_the_delayed_input_as_the_output_error_refit_does():
+    """``simulate_model`` of a linear model with a 23 ms delay (the held-out records'
+    prediction of a ``time_delay`` candidate) against scipy.signal.lsim of the held input
+    delayed on a grid ten times finer, and against the time-domain check's
+    ``LinearOutputError`` at the same parameters: the fitted and the scored model agree.
+    Linear interpolation of the delayed samples, the form it used before, is off by far
+    more."""
+    from _references import lsim_of_delayed_held_input
+
+    from jaxgwo._diagnose import _time_pairs
+    from jaxgwo._diagnose_which import _Z_NEUTRAL, LinearOutputError, ModelSpec, simulate_model
+    from jaxgwo._models import simulate_transfer_function
+
+    train, _val = _case(None, seed=2)
+    (t, u, _o, _y), *_ = _time_pairs(train, "lateral", SETTINGS.identify)
+    k, tau, m, ws, zs = (float(v) for v in MODEL.to_array())
+    d, fc = 0.023, 12.0
+    spec = ModelSpec(np.asarray(MODEL.to_array(), float), {"time_delay": {"delay_s": d}, "sensor_lag": {"cutoff_hz": fc}})
+    wc = 2 * np.pi * fc
+    num = [k * ws * ws * wc]
+    den = np.polymul(np.polymul([1.0, 1.0 / tau, m], [1.0, 2 * zs * ws, ws * ws]), [1.0, wc])
+    ref = lsim_of_delayed_held_input(num, den, t, u, d, fine=10)
+    scale = np.max(np.abs(ref))
+    assert scale > 0.1
+    got = simulate_model(spec, t, u)
+    assert np.max(np.abs(got - ref)) < 1e-8 * scale
+    obj = LinearOutputError(jnp.asarray(u[None]), jnp.asarray(u[None]), jnp.ones((1, u.size)), jnp.asarray(t),
+                            jnp.asarray(k), ("time_delay", "sensor_lag"))  # fmt: skip
+    z = _Z_NEUTRAL.copy()
+    z[0], z[1] = d, np.log(fc)
+    fitted = np.asarray(obj.outputs(jnp.asarray(np.r_[z, np.log([ws, zs, tau, m])])))[0]
+    assert np.max(np.abs(got - fitted)) < 1e-8 * scale
+    interpolated = np.asarray(simulate_transfer_function(num, den, t, np.interp(t - d, t, u, left=0.0)))
+    assert np.max(np.abs(interpolated - ref)) > 1e-4 * scale
+
+
 def test_time_domain_mode_check_finds_a_mode_its_j_start_misses():
     """The output-error refit of a ``structural_mode`` from the ``J`` fit's start alone (a
     broad pair at 4.5 Hz, where seed-89 case_033's ``J`` fit landed) stops at 6.4 Hz for a

@@ -760,26 +760,36 @@ def _servo_params(spec: ModelSpec, effects) -> _ServoParams:
 def simulate_model(spec: ModelSpec, t: np.ndarray, u: np.ndarray, u_off: np.ndarray | None = None) -> np.ndarray:
     """Output of ``spec`` for the on-axis input ``u`` (and off-axis ``u_off`` for
     ``cross_coupling``) at uniform times ``t``, from rest, as the simulator composes the
-    effects: mixing, delay, servo (with nonlinearities), rotor (with flapping), gyro filters."""
+    effects: mixing, delay, servo (with nonlinearities), rotor (with flapping), gyro filters.
+
+    A linear model holds the delayed input exactly
+    (:func:`jaxgwo._models.simulate_transfer_function_delayed`, as the simulator and the
+    output-error refit's :class:`LinearOutputError` do); one with a servo nonlinearity
+    takes the delayed samples by linear interpolation (its RK4 servo reads one held input
+    per sample)."""
     eff = dict(spec.effects)
     k, tau, m, ws, zs = (float(v) for v in spec.params)
     t = np.asarray(t, float)
     u = np.asarray(u, float)
     if "cross_coupling" in eff and u_off is not None:
         u = u + eff["cross_coupling"]["gain"] * np.asarray(u_off, float)
-    u = _delayed(t, u, eff.get("time_delay", {}).get("delay_s", 0.0))
+    delay = float(eff.get("time_delay", {}).get("delay_s", 0.0))
     rden = _rotor_den(tau, m, eff.get("rotor_flapping", {}).get("tau_f", 0.0))
     pnum, pden = _post_filter(eff, spec.fixed_modes)
     tj = jnp.asarray(t)
     if any(n in eff for n in NONLINEAR):
-        swash = _nonlinear_servo(_servo_params(spec, eff), jnp.asarray(u), float(t[1] - t[0]))
+        # the RK4 servo reads one held input per sample: the delayed samples interpolated
+        swash = _nonlinear_servo(_servo_params(spec, eff), jnp.asarray(_delayed(t, u, delay)), float(t[1] - t[0]))
         y = simulate_transfer_function(jnp.asarray([k]), jnp.asarray(rden), tj, swash)
         if pden.size > 1:
             y = simulate_transfer_function(jnp.asarray(pnum), jnp.asarray(pden), tj, y)
     else:
         num = np.polymul([k * ws * ws], pnum)
         den = np.polymul(np.polymul(rden, [1.0, 2.0 * zs * ws, ws * ws]), pden)
-        y = simulate_transfer_function(jnp.asarray(num), jnp.asarray(den), tj, jnp.asarray(u))
+        if delay > 0.0:  # the held input delayed exactly, as the simulator and LinearOutputError do
+            y = simulate_transfer_function_delayed(jnp.asarray(num), jnp.asarray(den), tj, jnp.asarray(u), delay)
+        else:
+            y = simulate_transfer_function(jnp.asarray(num), jnp.asarray(den), tj, jnp.asarray(u))
     return spec.gain_scale * np.asarray(y)
 
 
