@@ -2368,6 +2368,9 @@ def test_a_resonance_found_by_j_and_the_matched_filter_is_one_finding(j, td, sam
     ("structural_mode", (8.65, 0.15, 1.2), 1e-10, -40.0, False),  # real zeros: a pair, not a resonance
     ("structural_mode", (3.0, 0.2, 0.14), 1e-10, -40.0, False),  # on the box's edge beside a pair
     ("structural_mode", (45.0, 0.01, 1.5), 1e-10, -40.0, False),  # on the box's edge (rate limits)
+    # seed-353 case_027 (paper, no effect): a peak below the vocabulary's 8-30 Hz, where the
+    # held-out multisteps can judge it (they did: gap -0.041)
+    ("structural_mode", (6.35, 0.067, 0.101), 5.5e-4, -11.0, False),
     ("sensor_lag", (10.14, 0.054, 0.090), 1e-10, -40.0, False),  # not a resonance's candidate
 ])  # fmt: skip
 def test_a_resonance_j_finds_needs_the_held_out_records_only_not_to_contradict_it(effect, mode, p, dbic, found):

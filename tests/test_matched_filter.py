@@ -150,7 +150,8 @@ def test_a_resonance_refitted_by_output_error_passes_on_the_matched_filter(mode)
 
 def test_only_a_resonance_inside_the_box_takes_the_matched_filter():
     """The shapes that keep the F-test: a notch, a pair whose peak is below the
-    vocabulary's least (zeros 0.1 over poles 0.08), a broad pair, the box's edges."""
+    vocabulary's least (zeros 0.1 over poles 0.08), a broad pair, the box's edges, and a
+    peak outside the vocabulary's 8-30 Hz by more than 5 %."""
     from jaxgwo._diagnose import _resonance_in_box
 
     def mode(f, zp, zz):
@@ -164,3 +165,8 @@ def test_only_a_resonance_inside_the_box_takes_the_matched_filter():
     assert not _resonance_in_box(mode(45.0, 0.05, 0.2))  # top of the box
     assert not _resonance_in_box(mode(15.0, 0.01, 0.2))  # pole damping on the floor
     assert not _resonance_in_box(mode(15.0, 0.05, 1.5))  # zeros on the ceiling
+    assert not _resonance_in_box(mode(6.35, 0.067, 0.101))  # below the band (seed-353 case_027, no effect)
+    assert not _resonance_in_box(mode(7.55, 0.05, 0.2))  # 5.6 % below 8 Hz
+    assert _resonance_in_box(mode(7.65, 0.05, 0.2))  # 4.4 % below: a fit's error
+    assert _resonance_in_box(mode(31.4, 0.05, 0.2))
+    assert not _resonance_in_box(mode(31.6, 0.05, 0.2))
