@@ -100,7 +100,7 @@ _AIRFRAME_COUPLING_NOTE = (
     "The gain counts every path from the off-axis stick into this axis as mixing ahead of the servo, the "
     "airframe's own included: a rotor whose flapping the other cyclic drives directly (the R-50's B_lon, 0.099 of "
     "B_lat in the published model) adds its share. On the blind study's R-50 variants the gain read "
-    "above the mixing drawn on 18 of 19 cases (median 0.037 above; from 0.014 below to 0.119 above)."
+    "above the mixing drawn on 19 of 22 cases (median 0.037 above; from 0.122 below to 0.119 above)."
 )
 """The summary's caveat beside a ``cross_coupling`` verdict.  The R-50's lateral flapping
 equation has ``B_lat delta_lat + B_lon delta_lon``, exactly a mixing of the longitudinal
@@ -109,7 +109,7 @@ Measured on the stored diagnoses of fresh seeds 311, 313, 317 and 331, then out 
 on 337 and 347 (``docs/diagnosis-record.md``, session 54): the seventeen R-50 coupling
 cases' gains lie +0.005 to +0.119 above the drawn gain, the 31 paper plants' on both sides
 of it.  Seed 349, drawn after that (session 55), adds two R-50 couplings at +0.030 and
--0.014, the first below."""
+-0.014, the first below; seeds 353 and 359 (session 56) add -0.021, -0.122 and +0.084."""
 
 SEPARATING_EXCITATION = {  # each a clause that ends the report's "explain the data almost equally well; ..."
     frozenset({"sensor_lag", "rotor_flapping"}): (
