@@ -565,6 +565,15 @@ def test_a_resonance_beside_a_held_pair_counts_only_inside_its_box():
     assert not any(_on_box_edge(dict(zip(keys, v))) for v in inside)
 
 
+def _one_record_objective(t, u, k, names, fixed_modes=()):
+    """``LinearOutputError`` on the single record ``u`` (its output stands in for the
+    measured one: only ``outputs`` is read), gain ``k``, the linear effects ``names``."""
+    from jaxgwo._diagnose_which import LinearOutputError
+
+    return LinearOutputError(jnp.asarray(u[None]), jnp.asarray(u[None]), jnp.ones((1, u.size)), jnp.asarray(t),
+                             jnp.asarray(k), tuple(names), fixed_modes)  # fmt: skip
+
+
 def test_held_pole_pairs_simulate_as_the_product_transfer_function():
     """A model with a resonance and a held pole pair (``ModelSpec.fixed_modes``), simulated
     by ``simulate_model`` and by the time-domain check's ``LinearOutputError``, against
@@ -572,7 +581,7 @@ def test_held_pole_pairs_simulate_as_the_product_transfer_function():
     import scipy.signal
 
     from jaxgwo._diagnose import _time_pairs
-    from jaxgwo._diagnose_which import LinearOutputError, ModelSpec, simulate_model
+    from jaxgwo._diagnose_which import ModelSpec, simulate_model
 
     train, _val = _case(None, seed=2)
     (t, u, _o, _y), *_ = _time_pairs(train, "lateral", SETTINGS.identify)
@@ -589,8 +598,7 @@ def test_held_pole_pairs_simulate_as_the_product_transfer_function():
     assert scale > 0.1
     assert np.max(np.abs(simulate_model(spec, t, u) - ref)) < 1e-8 * scale
     def objective(pairs):
-        return LinearOutputError(jnp.asarray(u[None]), jnp.asarray(u[None]), jnp.ones((1, u.size)), jnp.asarray(t),
-                                 jnp.asarray(k), ("structural_mode",), pairs)  # fmt: skip
+        return _one_record_objective(t, u, k, ("structural_mode",), pairs)
 
     traces = []
 
@@ -1200,14 +1208,13 @@ def test_linear_output_error_matches_scipy_lsim():
     from _references import lsim_of_delayed_held_input
 
     from jaxgwo._diagnose import _time_pairs
-    from jaxgwo._diagnose_which import FREQUENCY_DOMAIN, LinearOutputError
+    from jaxgwo._diagnose_which import FREQUENCY_DOMAIN
 
     train, _val = _case(None, seed=2)
     (t, u, _o, _y), *_ = _time_pairs(train, "lateral", SETTINGS.identify)
     k, tau, m, ws, zs = (float(v) for v in MODEL.to_array())
     d, fc, tf, fn, zp, zz = 0.023, 12.0, 0.02, 9.0, 0.15, 0.4
-    obj = LinearOutputError(jnp.asarray(u[None]), jnp.asarray(u[None]), jnp.ones((1, u.size)), jnp.asarray(t),
-                            jnp.asarray(k), FREQUENCY_DOMAIN)  # fmt: skip
+    obj = _one_record_objective(t, u, k, FREQUENCY_DOMAIN)
     x = np.r_[d, np.log(fc), tf, np.log([fn, zp, zz]), np.log([ws, zs, tau, m])]
     got = np.asarray(obj.outputs(jnp.asarray(x)))[0]
     wn, wc = 2 * np.pi * fn, 2 * np.pi * fc
@@ -1234,7 +1241,7 @@ def test_model_with_a_delay_holds_the_delayed_input_as_the_output_error_refit_do
     from _references import lsim_of_delayed_held_input
 
     from jaxgwo._diagnose import _time_pairs
-    from jaxgwo._diagnose_which import _Z_NEUTRAL, LinearOutputError, ModelSpec, simulate_model
+    from jaxgwo._diagnose_which import _Z_NEUTRAL, ModelSpec, simulate_model
     from jaxgwo._models import simulate_transfer_function
 
     train, _val = _case(None, seed=2)
@@ -1250,8 +1257,7 @@ def test_model_with_a_delay_holds_the_delayed_input_as_the_output_error_refit_do
     assert scale > 0.1
     got = simulate_model(spec, t, u)
     assert np.max(np.abs(got - ref)) < 1e-8 * scale
-    obj = LinearOutputError(jnp.asarray(u[None]), jnp.asarray(u[None]), jnp.ones((1, u.size)), jnp.asarray(t),
-                            jnp.asarray(k), ("time_delay", "sensor_lag"))  # fmt: skip
+    obj = _one_record_objective(t, u, k, ("time_delay", "sensor_lag"))
     z = _Z_NEUTRAL.copy()
     z[0], z[1] = d, np.log(fc)
     fitted = np.asarray(obj.outputs(jnp.asarray(np.r_[z, np.log([ws, zs, tau, m])])))[0]
