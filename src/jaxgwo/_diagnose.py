@@ -194,7 +194,15 @@ class DiagnoseSettings:
     little off-axis activity confirm a real coupling weakly (seed-31 case_053: gain -0.22,
     error cut x1.67, held-out z 0.67, refused before), and on the stored rankings of
     development seeds 2, 7, 11, 23, 31 and 41 no cross-coupling fitted to a case without one
-    cut the error by more than x1.16.  ``alpha`` and ``z_min_time`` were set on the blind study's
+    cut the error by more than x1.16.  On top of a structure finding,
+    whose pole pair a nonlinearity refits beside it
+    (:func:`jaxgwo._diagnose_which.fit_nonlinear_candidates`' ``free_mode``), a nonlinear
+    candidate must cut that error by ``pair_free_error_ratio`` whatever else backs it: the pair's freedom lets
+    a nonlinearity take up the airframe's model-form error.  On the 16 R-50 ``none`` cases
+    with a structure finding of the stored draws 311-353 the best cut x1.06 (two passed, at
+    x1.05 and x1.06, before this); the R-50 rate limits found so cut it x1.11-2.57, and
+    311/013 (a rate of 9.3 acting on 2 % of the samples, x1.03) is refused.  Set there, in
+    sample.  ``alpha`` and ``z_min_time`` were set on the blind study's
     seed-0 cases (``benchmarks/blind_diagnosis.py``) and checked on seed 1;
     ``min_error_ratio`` (1.2 there) was lowered to 1.1 on seeds 7 and 8, once every
     nonlinear refit nests the null refit (before, a candidate could fit worse than the
@@ -311,6 +319,7 @@ class DiagnoseSettings:
     z_min_time: float = 1.0
     min_error_ratio: float = 1.05
     strong_error_ratio: float = 1.5
+    pair_free_error_ratio: float = 1.08
     alpha_amplitude: float = 0.05
     alpha_held_out_first: float = 0.05
     alpha_coupling_gain: float = 1e-5
@@ -343,7 +352,7 @@ class DiagnoseSettings:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0.0 <= v < 1.0):
                 raise ValueError(f"{name} must be a level in [0, 1) (0: off), got {v!r}.")
-        for name in ("min_error_ratio", "strong_error_ratio"):
+        for name in ("min_error_ratio", "strong_error_ratio", "pair_free_error_ratio"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and v >= 1.0):
                 raise ValueError(
@@ -1775,6 +1784,7 @@ def diagnose(
                 if any(math.isfinite(e) for e in errs):
                     td_base = alts[int(np.argmin(errs))]
             *nl, null = fit_nonlinear_candidates(td_base, tt, nl_names, k_nl, include_null=True,
+                                                 free_mode=bool(base.linear),
                                                  **_nonlinear_budget(settings))  # fmt: skip
             null_spec = null.spec(td_base)
             specs[()] = td_base  # where the time-domain fits started (the combined step's too)
@@ -1954,10 +1964,17 @@ def diagnose(
             # the null refit's own J, which a nonlinearity's J is tested against (below); the
             # score's J0 stays the base's
             j_null = sim_J(null_spec)
+            # on a structure finding the nonlinearities refit its pair as well, and are tested
+            # against a null refit given the same freedom (fit_nonlinear_candidates' free_mode)
+            against = next((f.against for f in nl if f.against is not None), None)
+            nul, val_nul, j_nul = null, val_null, j_null
+            if against is not None:
+                a_spec = against.spec(td_base)
+                nul, val_nul, j_nul = against, [simulate_model(a_spec, t, u) for t, u, _o, _y in tv], sim_J(a_spec)
             for f in nl:
                 spec = f.spec(td_base)
                 specs[f.effects] = spec
-                p_mse = f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4)
+                p_mse = f_test_p(nul.train_mse, f.train_mse, 1, n_nl - 4)
                 # Gusts dominate the output error, so a real servo nonlinearity may cut it by only
                 # a few per cent.  Trust a small cut when the frequency-domain amplitude test,
                 # independent of the output-error fit, shows the change with amplitude this
@@ -1965,10 +1982,10 @@ def diagnose(
                 # gust-induced error significantly).
                 corroborated = _amplitude_agreement(f.effects[0], amp) > 0.0
                 level = settings.alpha_amplitude if corroborated else settings.alpha
-                ev = output_error_evidence(null.train_mse, f.train_mse, 1, n_nl)
+                ev = output_error_evidence(nul.train_mse, f.train_mse, 1, n_nl)
                 # an effect that cuts the null refit's identification error by a large factor
                 # needs the held-out records only not to contradict it, as a linear one does
-                strong = null.train_mse >= settings.strong_error_ratio * f.train_mse
+                strong = nul.train_mse >= settings.strong_error_ratio * f.train_mse
                 # The candidate is the null refit with the nonlinearity added.  Where that refit
                 # predicts the held-out records worse than the frequency-domain base (an R-50's
                 # extra pole pair, fitted to J, carries model-form error the output-error fit
@@ -1978,7 +1995,7 @@ def diagnose(
                 # 0.966 -> 0.976 (z 1.06) below the pair model's 0.981 and was refused.  That
                 # gap may then be the refit's, but only for evidence that passes without the
                 # amplitude test's backing: F-test at alpha and the effect size.
-                plain = p_mse < settings.alpha and null.train_mse >= settings.min_error_ratio * f.train_mse
+                plain = p_mse < settings.alpha and nul.train_mse >= settings.min_error_ratio * f.train_mse
                 j_f = sim_J(spec)
                 # J against the null refit's J: a second test of the nonlinearity on the
                 # identification records, on the response's coherent points, which gusts do not
@@ -1995,24 +2012,28 @@ def diagnose(
                 # 8e-5: it bends round the missing pole pair), and the pair outranks it.
                 # It counts only with an effect size (DiagnoseSettings: j_null_ratio): a
                 # resonance near the sweeps' top passed it as a rate limit at 0.64-0.69.
-                p_j_null = j_f_test_p(j_null, j_f, 1, m_eff)
-                j_strong, p_id = _against_null_j(p_mse, p_j_null, j_f, j_null, settings.alpha, settings.j_null_ratio)
+                p_j_null = j_f_test_p(j_nul, j_f, 1, m_eff)
+                j_strong, p_id = _against_null_j(p_mse, p_j_null, j_f, j_nul, settings.alpha, settings.j_null_ratio)
                 strong = strong or j_strong
                 kw = dict(j_required=False, evidence=ev, time_domain=True, alpha=level, confirm=not strong,
                           gap_against_baseline=plain)
-                sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_null,
+                sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
                            extra_p=p_id, **kw)  # fmt: skip
-                sized = j_strong or _effect_size_passes(null.train_mse / f.train_mse, settings.min_error_ratio,
+                sized = j_strong or _effect_size_passes(nul.train_mse / f.train_mse, settings.min_error_ratio,
                                                         corroborated, sc.delta_bic_val)  # fmt: skip
+                if f.mode is not None and nul.train_mse < settings.pair_free_error_ratio * f.train_mse:
+                    sized = False  # on a structure finding with its pair refitted: see pair_free_error_ratio
                 if not sized:  # significant perhaps, but too small an effect to trust
-                    sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_null,
+                    sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
                                extra_p=1.0, predicted=sc.predicted, **kw)  # fmt: skip
-                det = {"train_mse": f.train_mse, "null_train_mse": null.train_mse, "n_eff_train": n_nl,
-                       "train_corr_time_s": tc_tr, "p_val_tc": f_test_p(null.train_mse, f.train_mse, 1, n_train_eff - 4),
-                       "p_output_error": f_test_p(null.train_mse, f.train_mse, 1, n_nl - 4),
+                det = {"train_mse": f.train_mse, "null_train_mse": nul.train_mse, "n_eff_train": n_nl,
+                       "train_corr_time_s": tc_tr, "p_val_tc": f_test_p(nul.train_mse, f.train_mse, 1, n_train_eff - 4),
+                       "p_output_error": f_test_p(nul.train_mse, f.train_mse, 1, n_nl - 4),
                        "amplitude_corroborates": float(corroborated), "effect_size_passes": float(sized),
                        "confirmed_against_null_refit_only": float(sc.beats_noise and not sc.gap_closed > 0.0),
-                       "null_cost_J": j_null, "p_J_null": p_j_null}  # fmt: skip
+                       "null_cost_J": j_nul, "p_J_null": p_j_null}  # fmt: skip
+                if f.mode:  # the structure finding's pair as refitted beside the nonlinearity
+                    det |= {f"pair_{q}": v for q, v in f.mode.items()}
                 scored.append(dataclasses.replace(sc, detail=det))
         return scored, specs, fits, lin_from, output_error, refit
 
