@@ -1961,6 +1961,24 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
     np.testing.assert_allclose(lagged, flap, rtol=1e-10, atol=0)
 
 
+@pytest.mark.parametrize("cut, corroborated, j_strong, passes", [
+    (1.0549, False, False, False),  # seed-313 case_028, an R-50 without an effect: plain x1.05 cut
+    (1.0639, False, False, False),  # 331/069, the same
+    (1.1134, False, False, True),   # 317/021, an R-50 rate limit: the cut
+    (1.0806, True, False, True),    # 317/064: the amplitude test
+    (1.0321, False, True, True),    # 311/013: J against the null refit
+])  # fmt: skip
+def test_pair_free_effect_size_on_the_stored_r50_cases(cut, corroborated, j_strong, passes):
+    """The effect size a pair-free nonlinearity needs, on the stored R-50 cases it was set
+    on; the plain gate (``min_error_ratio`` 1.05 or the held-out BIC) passed both ``none``
+    cases."""
+    from jaxgwo._diagnose import _effect_size_passes, _pair_free_effect_size
+
+    assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated, j_strong) is passes
+    if not passes:
+        assert _effect_size_passes(cut, SETTINGS.min_error_ratio, corroborated, -1.0)
+
+
 @pytest.mark.parametrize("kw, what", [({"min_error_ratio": 0.9}, "min_error_ratio must be a number >= 1"),
                                       ({"strong_error_ratio": 0.5}, "strong_error_ratio must be a number >= 1"),
                                       ({"pair_free_error_ratio": 0.9}, "pair_free_error_ratio must be a number >= 1"),
