@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import equinox as eqx
 import jax
@@ -814,6 +814,8 @@ class TimeFit:
     against: TimeFit | None = None
     """The null refit this fit is tested against where it is not the common one: with the
     structure finding's pair refitted as well (``free_mode``)."""
+    held: TimeFit | None = None
+    """The same candidate fitted with the structure finding's pair held (``free_mode``)."""
 
     def spec(self, base: ModelSpec) -> ModelSpec:
         """``base`` with this fit's effects, refitted paper parameters (and pair) and output gain."""
@@ -1344,8 +1346,9 @@ def fit_nonlinear_candidates(
     With ``free_mode`` and a ``structural_mode`` in ``base`` (a structure finding's pole
     pair), each candidate is refined once more with that pair free as well, and tested
     against a null refit given the same freedom (:func:`_refit_pair_beside`): the
-    candidate's :attr:`TimeFit.mode` is the refitted pair and :attr:`TimeFit.against` that
-    null.  The null returned (``include_null``) is the common one, the pair held.
+    candidate's :attr:`TimeFit.mode` is the refitted pair, :attr:`TimeFit.against` that
+    null and :attr:`TimeFit.held` the candidate as fitted with the pair held.  The null
+    returned (``include_null``) is the common one, the pair held.
     """
     names = [n for n in names if n in NONLINEAR]
     if not names and not include_null:
@@ -1460,30 +1463,25 @@ def fit_nonlinear_candidates(
             xn = _polish_nonlinear(objs[i], x0, lo_i, hi_i, False)
             if _nl_mse(objs[i], xn) < e_i:
                 best[i] = xn
-    against = None
-    if free_mode and names and "structural_mode" in base.effects:
-        objs_f, xs_f, x_nf = _refit_pair_beside(base, train, names, best, x_null, lo, hi, u_scale, polish_steps)
-        c_n, e_n = (float(v) for v in _nl_gain_mse(objs_f[-1], jnp.asarray(x_nf)))
-        against = TimeFit((), {}, {}, c_n, e_n, _servo_and_rotor(x_nf[1:5]), _pair_params(x_nf[5:8]))
-        objs = list(objs_f[:-1]) + list(objs[len(names):])
-        nulls = np.pad(best[len(names):], ((0, 0), (0, 3)))  # the common null's row (include_null), 5 used
-        best = np.concatenate([np.stack(xs_f), nulls])
-    out = []
-    for n, obj, xb in zip(rows, objs, best):
-        if n == "null":
-            xb = xb[:5]
+    def timefit(n, obj, xb, mode=None, against=None, held=None):
         c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(xb)))
         refit = _servo_and_rotor(xb[1:5])
         if n == "null":
-            out.append(TimeFit((), {}, {}, c, e0, refit))
-            continue
+            return TimeFit((), {}, {}, c, e0, refit)
         res, jac = _nl_residual_jacobian(obj, jnp.asarray(xb))
         var = _output_error_covariance(obj, res, jac, obj.dt, max_lag_s)[0, 0]
         sig_log = math.sqrt(var) if var > 0.0 else float("inf")
         v = math.exp(xb[0])
         pname = _NL_PARAM[n]
-        mode = _pair_params(xb[5:8]) if against is not None else None
-        out.append(TimeFit((n,), {n: {pname: v}}, {n: {pname: v * sig_log}}, c, e0, refit, mode, against))
+        return TimeFit((n,), {n: {pname: v}}, {n: {pname: v * sig_log}}, c, e0, refit, mode, against, held)
+
+    out = [timefit(n, obj, xb) for n, obj, xb in zip(rows, objs, best)]
+    if free_mode and names and "structural_mode" in base.effects:
+        objs_f, xs_f, x_nf = _refit_pair_beside(base, train, names, best, x_null, lo, hi, u_scale, polish_steps)
+        against = timefit("null", objs_f[-1], x_nf)
+        against = replace(against, mode=_pair_params(x_nf[5:8]))
+        out[: len(names)] = [timefit(n, objs_f[i], xs_f[i], _pair_params(xs_f[i][5:8]), against, out[i])
+                             for i, n in enumerate(names)]  # fmt: skip
     return out
 
 
