@@ -1492,7 +1492,7 @@ def _pair_params(z) -> dict[str, float]:
 
 _PAIR_FREE_FACTOR = 10.0
 """How far :func:`_refit_pair_beside` lets the servo frequency and the rotor term's ``tau``
-and ``M`` move from the base's, either way."""
+and ``M`` move from the null refit's, either way."""
 
 
 def _refit_pair_beside(base: ModelSpec, train, names: Sequence[str], best: np.ndarray, x_null: np.ndarray,
@@ -1500,7 +1500,7 @@ def _refit_pair_beside(base: ModelSpec, train, names: Sequence[str], best: np.nd
     """Each nonlinear candidate of :func:`fit_nonlinear_candidates` and its null refit
     refined again with the structure finding's pole pair free as well, in the structure
     step's box (:data:`_Z_LO_STRUCTURE`, :data:`_Z_HI_STRUCTURE`), the servo and rotor term
-    within :data:`_PAIR_FREE_FACTOR` of the base's.
+    within :data:`_PAIR_FREE_FACTOR` of the null refit's.
 
     The pair was fitted to ``J`` before any nonlinearity, so it has absorbed part of the
     nonlinearity's describing function as the servo and rotor term have, and with a pair
@@ -1521,7 +1521,9 @@ def _refit_pair_beside(base: ModelSpec, train, names: Sequence[str], best: np.nd
     null's, each ``(log value, log omega_s, log zeta_s, log tau, log M, log pair)``."""
     objs = nonlinear_objectives(base, train, list(names) + ["null"], free_mode=True)
     null_obj = objs[-1]
-    _k, tau, m, ws, zs = (abs(float(v)) for v in base.params)
+    # the box about the null refit's servo and rotor (an RK4-integrable servo, where a
+    # frequency-domain base's may run to 1e9 rad/s: _nonstiff_servo)
+    ws, zs, tau, m = np.exp(np.asarray(x_null[1:5], float))
     zc = min(max(zs, 0.1), 1.5)
     f = _PAIR_FREE_FACTOR
     p_lo = np.log([ws / f, min(zc / 2.0, 0.25), tau / f, m / f])
@@ -1534,7 +1536,7 @@ def _refit_pair_beside(base: ModelSpec, train, names: Sequence[str], best: np.nd
     c_hi = [np.r_[hi[i][0], p_hi, m_hi] for i in range(len(names))]
 
     def refine(rows, starts, los, his):
-        """LM on every row at once, the better half finished by L-BFGS-B; each row's best point."""
+        """LM on every start at once; each candidate's best start finished by L-BFGS-B."""
         lo_r, hi_r = np.stack(los), np.stack(his)
         st = np.clip(np.stack(starts), lo_r, hi_r)
         stacked = G.stack_objectives([objs[i] for i in rows])
