@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import equinox as eqx
 import jax
@@ -1467,7 +1467,7 @@ def fit_nonlinear_candidates(
         c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(xb)))
         refit = _servo_and_rotor(xb[1:5])
         if n == "null":
-            return TimeFit((), {}, {}, c, e0, refit)
+            return TimeFit((), {}, {}, c, e0, refit, mode)
         res, jac = _nl_residual_jacobian(obj, jnp.asarray(xb))
         var = _output_error_covariance(obj, res, jac, obj.dt, max_lag_s)[0, 0]
         sig_log = math.sqrt(var) if var > 0.0 else float("inf")
@@ -1478,8 +1478,7 @@ def fit_nonlinear_candidates(
     out = [timefit(n, obj, xb) for n, obj, xb in zip(rows, objs, best)]
     if free_mode and names and "structural_mode" in base.effects:
         objs_f, xs_f, x_nf = _refit_pair_beside(base, train, names, best, x_null, lo, hi, u_scale, polish_steps)
-        against = timefit("null", objs_f[-1], x_nf)
-        against = replace(against, mode=_pair_params(x_nf[5:8]))
+        against = timefit("null", objs_f[-1], x_nf, _pair_params(x_nf[5:8]))
         out[: len(names)] = [timefit(n, objs_f[i], xs_f[i], _pair_params(xs_f[i][5:8]), against, out[i])
                              for i, n in enumerate(names)]  # fmt: skip
     return out
