@@ -2029,11 +2029,12 @@ def diagnose(
                           gap_against_baseline=plain)
                 sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
                            extra_p=p_id, **kw)  # fmt: skip
-                sized = j_strong or _effect_size_passes(nul.train_mse / f.train_mse, settings.min_error_ratio,
-                                                        corroborated, sc.delta_bic_val)  # fmt: skip
                 if f.mode is not None:  # on a structure finding, its pair refitted beside it
                     sized = _pair_free_effect_size(nul.train_mse / f.train_mse, settings.pair_free_error_ratio,
                                                    corroborated)  # fmt: skip
+                else:
+                    sized = j_strong or _effect_size_passes(nul.train_mse / f.train_mse, settings.min_error_ratio,
+                                                            corroborated, sc.delta_bic_val)  # fmt: skip
                 if not sized:  # significant perhaps, but too small an effect to trust
                     sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
                                extra_p=1.0, predicted=sc.predicted, **kw)  # fmt: skip
