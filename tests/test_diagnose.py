@@ -1971,13 +1971,33 @@ def test_sensor_lag_and_rotor_flapping_are_the_same_input_output_family():
 ])  # fmt: skip
 def test_pair_free_effect_size_on_the_stored_r50_cases(cut, corroborated, passes):
     """The effect size a pair-free nonlinearity needs, on the stored R-50 cases it was set
-    on; the plain gate (``min_error_ratio`` 1.05, the held-out BIC or ``J``) passed every
-    ``none`` case here."""
+    on (``J`` no worse than the null's here); the plain gate (``min_error_ratio`` 1.05, the
+    held-out BIC or ``J``) passed every ``none`` case here."""
     from jaxgwo._diagnose import _effect_size_passes, _pair_free_effect_size
 
-    assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated) is passes
+    assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated, 1.0, 1.0) is passes
     if not passes:
         assert _effect_size_passes(cut, SETTINGS.min_error_ratio, corroborated, -1.0)
+
+
+@pytest.mark.parametrize("cut, corroborated, j, j_null, passes", [
+    (1.7419, True, 27.62, 145.98, True),    # fresh seed 373's case_050, an R-50 rate limit
+    (3.3702, True, 27.85, 146.41, True),    # fresh seed 379's case_052, the same
+    (2.5740, True, 70.17, 126.61, True),    # 313/011, the same
+    (1.1134, False, 27.08, 68.29, True),    # 317/021, the same, on the cut
+    (1.0806, True, 11.09, 19.23, True),     # 317/064, the same
+    (1.1007, True, 30.81, 20.01, False),    # 313/047, a rate limit called saturation
+    (1.0820, False, 45.48, 35.75, False),   # fresh seed 379's case_071, a resonance called saturation
+])  # fmt: skip
+def test_pair_free_nonlinearity_must_not_fit_j_worse_than_its_null(cut, corroborated, j, j_null, passes):
+    """A pair-free nonlinearity whose ``J`` is above its pair-free null's is refused, whatever
+    its cut or the amplitude test: the numbers of the R-50 cases rediagnosed on 3ca56e4
+    (session 58).  The two refused ones passed the cut or amplitude test alone."""
+    from jaxgwo._diagnose import _pair_free_effect_size
+
+    assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated, j, j_null) is passes
+    if not passes:
+        assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated, j_null, j_null)
 
 
 @pytest.mark.parametrize("kw, what", [({"min_error_ratio": 0.9}, "min_error_ratio must be a number >= 1"),
