@@ -1449,20 +1449,8 @@ def fit_nonlinear_candidates(
         e2 = _nl_mse(null_obj, x2)
         if e2 < e_null:
             x_null, e_null = x2, e2
-    best = np.stack(best + ([x_null] if include_null else []))
-    # every candidate nests the null refit (its box reaches where the nonlinearity no
-    # longer acts): where the search stopped above the null's error, polish again from
-    # the null's paper parameters with the nonlinearity switched off and keep the better point
-    for i, n in enumerate(names):
-        e_i = _nl_mse(objs[i], best[i])
-        if e_i > e_null:
-            v_off = _inactive_value(n, u_scale)
-            x0 = np.r_[v_off, x_null[1:]]
-            lo_i, hi_i = lo[i].copy(), hi[i].copy()
-            lo_i[0], hi_i[0] = min(lo_i[0], v_off), max(hi_i[0], v_off)
-            xn = _polish_nonlinear(objs[i], x0, lo_i, hi_i, False)
-            if _nl_mse(objs[i], xn) < e_i:
-                best[i] = xn
+    best = np.stack(_nest_null(objs, names, best, x_null, e_null, lo, hi, u_scale)
+                    + ([x_null] if include_null else []))  # fmt: skip
     def timefit(n, obj, xb, mode=None, against=None, held=None):
         c, e0 = (float(v) for v in _nl_gain_mse(obj, jnp.asarray(xb)))
         refit = _servo_and_rotor(xb[1:5])
@@ -1485,8 +1473,9 @@ def fit_nonlinear_candidates(
 
 
 def _pair_params(z) -> dict[str, float]:
-    """A pole pair's ``{freq_hz, zeta_p, zeta_z}`` from their logs in that order."""
-    return {n: math.exp(v) for n, v in zip(("freq_hz", "zeta_p", "zeta_z"), z, strict=True)}
+    """A pole pair's ``{freq_hz, zeta_p, zeta_z}`` (``structural_mode``'s parameters) from
+    their logs in that order."""
+    return {n: math.exp(v) for n, v in zip(EFFECTS["structural_mode"].params, z, strict=True)}
 
 
 _PAIR_FREE_FACTOR = 10.0
@@ -1529,7 +1518,7 @@ def _refit_pair_beside(base: ModelSpec, train, names: Sequence[str], best: np.nd
     p_hi = np.log([ws * f, max(zc * 2.0, 3.0), tau * f, m * f])
     sm = base.effects["structural_mode"]
     m_lo, m_hi = _Z_LO_STRUCTURE[3:6], _Z_HI_STRUCTURE[3:6]
-    zm = np.log([sm["freq_hz"], sm["zeta_p"], sm["zeta_z"]])
+    zm = np.log([sm[q] for q in EFFECTS["structural_mode"].params])
     n_lo, n_hi = np.r_[0.0, p_lo, m_lo], np.r_[1e-9, p_hi, m_hi]  # the null's value does nothing
     c_lo = [np.r_[lo[i][0], p_lo, m_lo] for i in range(len(names))]
     c_hi = [np.r_[hi[i][0], p_hi, m_hi] for i in range(len(names))]
@@ -1562,16 +1551,29 @@ def _refit_pair_beside(base: ModelSpec, train, names: Sequence[str], best: np.nd
             x2 = _polish_nonlinear(null_obj, x0, n_lo, n_hi, True, "L-BFGS-B", polish_steps)
             if _nl_mse(null_obj, x2) < e_n:
                 x_n, e_n = x2, _nl_mse(null_obj, x2)
-    for i, n in enumerate(names):
-        e_i = _nl_mse(objs[i], xs[i])
-        if e_i > e_n:
-            v_off = _inactive_value(n, u_scale)
-            lo_i, hi_i = c_lo[i].copy(), c_hi[i].copy()
-            lo_i[0], hi_i[0] = min(lo_i[0], v_off), max(hi_i[0], v_off)
-            xn = _polish_nonlinear(objs[i], np.r_[v_off, x_n[1:]], lo_i, hi_i, False, "L-BFGS-B", polish_steps)
-            if _nl_mse(objs[i], xn) < e_i:
-                xs[i] = xn
+    xs = _nest_null(objs, names, xs, x_n, e_n, c_lo, c_hi, u_scale, "L-BFGS-B", polish_steps)
     return objs, xs, x_n
+
+
+def _nest_null(objs, names: Sequence[str], xs, x_null: np.ndarray, e_null: float, lo, hi, u_scale: float,
+               *polish) -> list[np.ndarray]:
+    """Every candidate nests the null refit (its box reaches where the nonlinearity no
+    longer acts): where a candidate's point ``xs[i]`` fits worse than the null's error
+    ``e_null``, it is polished again (:func:`_polish_nonlinear`, its ``method`` and
+    ``maxiter`` in ``polish``) from the null's point ``x_null`` with the nonlinearity
+    switched off, its box ``lo[i], hi[i]`` stretched to that value, and the better point
+    kept.  Returns the candidates' points."""
+    out = list(xs)
+    for i, n in enumerate(names):
+        e_i = _nl_mse(objs[i], out[i])
+        if e_i > e_null:
+            v_off = _inactive_value(n, u_scale)
+            lo_i, hi_i = np.array(lo[i], float), np.array(hi[i], float)
+            lo_i[0], hi_i[0] = min(lo_i[0], v_off), max(hi_i[0], v_off)
+            xn = _polish_nonlinear(objs[i], np.r_[v_off, x_null[1:]], lo_i, hi_i, False, *polish)
+            if _nl_mse(objs[i], xn) < e_i:
+                out[i] = xn
+    return out
 
 
 _RATE_FRACTIONS = (0.002, 0.5)
