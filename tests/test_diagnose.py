@@ -2570,7 +2570,7 @@ def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_no
     The 8.5 Hz resonance of the test above, with its ``J`` fit refused as there (positive-gap
     floor raised to 0.5, :func:`_resonance_found_by_j` off) and ``J`` made not to agree with
     the output-error refit (:func:`_same_resonance` off), as on seed-227 case_029.  The
-    refit lands on the mode at matched-filter z 5.7, beyond the level's 5.1, while the
+    refit lands on the mode at matched-filter z 5.7, beyond the level's 4.0, while the
     held-out records do not confirm it (z -0.3, below ``z_min_time``): it stands in for the
     ``J`` fit on the unconfirmed floor, and the summary says why.  With ``alpha_resonance``
     0 (off) it needs that confirmation and is refused."""
@@ -2611,9 +2611,13 @@ def test_a_resonance_j_does_not_find_on_its_own_needs_the_held_out_confirmation(
 def test_a_resonance_far_beyond_noise_by_the_matched_filter_alone_needs_the_held_out_records_only_not_to_contradict_it():
     """``alpha_resonance``: fresh seed 227's case_029 (a 10.42 Hz mode; the refit 10.51 Hz at
     matched-filter z 5.34, ``J`` finding no resonance) was refused at held-out z 0.77 and gap
-    0.31 for want of confirmation; at this level it need only not be contradicted.  Seed
-    199's case_040 (z 4.64) still needs the confirmation, and so does a refit ``J`` agrees
-    with (its own route, the linear floor) or one that is no resonance of the vocabulary."""
+    0.31 for want of confirmation; at this level it need only not be contradicted.  So,
+    since the level is ``alpha`` (session 59), need the true paper resonances the stored
+    seeds 347-379 answered ``none`` with their refit on the mode: 367/019 (z 4.20, held-out
+    z 0.95, gap 0.019), 379/058 (4.58), 379/068 (4.94) and 347/046 (4.11, held-out z -0.62,
+    gap 0.25).  A rate limit's refit in the box (383/005, z 3.41) and the ``none`` cases'
+    (at most 1.35 on seeds 311-389) stay below it; a refit ``J`` agrees with (its own route,
+    the linear floor) or one that is no resonance of the vocabulary needs the confirmation."""
     import scipy.stats
 
     from jaxgwo._diagnose import _held_out_floor, _matched_filter_alone
@@ -2622,19 +2626,22 @@ def test_a_resonance_far_beyond_noise_by_the_matched_filter_alone_needs_the_held
     s = DiagnoseSettings()
     # the level in matched-filter z: z^2 against chi^2 with the mode's three parameters
     z_level = math.sqrt(scipy.stats.chi2.isf(s.alpha_resonance, 3))
-    assert 5.0 < z_level < 5.2 and abs(matched_filter_p(z_level, 3) - s.alpha_resonance) < 1e-9
-    p029, p040 = matched_filter_p(5.34, 3), matched_filter_p(4.64, 3)
-    assert p029 < s.alpha_resonance < p040 < s.alpha
-    assert _matched_filter_alone(True, False, p029, s.alpha_resonance)
-    assert not _matched_filter_alone(True, False, p040, s.alpha_resonance)
+    assert 4.0 < z_level < 4.1 and abs(matched_filter_p(z_level, 3) - s.alpha_resonance) < 1e-9
+    assert s.alpha_resonance == s.alpha
+    for z in (5.34, 4.94, 4.58, 4.20, 4.11):
+        assert _matched_filter_alone(True, False, matched_filter_p(z, 3), s.alpha_resonance), z
+    for z in (3.41, 3.39, 1.35):
+        assert not _matched_filter_alone(True, False, matched_filter_p(z, 3), s.alpha_resonance), z
+    p029 = matched_filter_p(5.34, 3)
     assert not _matched_filter_alone(True, True, p029, s.alpha_resonance)  # J agrees: _same_resonance's route
     assert not _matched_filter_alone(False, False, p029, s.alpha_resonance)  # no resonance: the F-test's evidence
     assert not _matched_filter_alone(True, False, p029, 0.0)  # switched off
-    # case_029's held-out numbers pass the unconfirmed floor, not the confirming one
+    # the held-out numbers of case_029, 367/019 and 347/046 pass the unconfirmed floor, not the confirming one
     z_un, gap_un = _held_out_floor(s, ("structural_mode",), True, False)
     z_co, gap_co = _held_out_floor(s, ("structural_mode",), True, True)
     assert (z_un, gap_un) == (s.z_min, 0.0) and (z_co, gap_co) == (s.z_min_time, 0.0)
-    assert z_un < 0.77 <= z_co and 0.31 > gap_un
+    for z_held, gap in ((0.77, 0.31), (0.95, 0.019), (-0.62, 0.25)):
+        assert z_un < z_held < z_co and gap > gap_un
     # seed-227 case_014 (z 5.25, gap -0.044): past the level, but a negative gap still refuses it
     assert _matched_filter_alone(True, False, matched_filter_p(5.25, 3), s.alpha_resonance) and not -0.044 > gap_un
 
