@@ -2005,6 +2005,7 @@ def test_pair_free_nonlinearity_must_not_fit_j_worse_than_its_null(cut, corrobor
                                       ({"pair_free_error_ratio": 0.9}, "pair_free_error_ratio must be a number >= 1"),
                                       ({"structure_zeta_z": 0.0}, "structure_zeta_z must be a positive number"),
                                       ({"lag_over_delay": -0.1}, "lag_over_delay must be a score margin >= 0"),
+                                      ({"nonlinearity_by_j": -0.1}, "nonlinearity_by_j must be a score margin >= 0"),
                                       ({"alpha_held_out_first": 1.0}, r"alpha_held_out_first must be a level in \[0, 1\)"),
                                       ({"alpha_coupling_gain": -1e-5}, r"alpha_coupling_gain must be a level in \[0, 1\)"),
                                       ({"alpha_resonance": 1.5}, r"alpha_resonance must be a level in \[0, 1\)"),
@@ -2051,6 +2052,45 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
     # a lag that does not beat noise never moves
     failing = [_scored(e, v, ok=e not in ("rotor_flapping", "sensor_lag")) for e, v in scores.items()]
     assert _lag_over_delay(failing, 0.15) == tuple(failing)
+
+
+@pytest.mark.parametrize("cands, order", [
+    # seed-401 case_058 (R-50 rate limit): the pair-free saturation led by 0.016 at J 28.4, the rate limit at 11.7
+    ({"saturation": (0.186, 28.4), "rate_limit": (0.170, 11.7), "backlash": (-10.0, 26.2)},
+     ["rate_limit", "saturation", "backlash"]),
+    # seed-359 case_017: both pair-free, the saturation by 0.002 at J 20.4 against 11.9
+    ({"saturation": (0.443, 20.4), "rate_limit": (0.441, 11.9)}, ["rate_limit", "saturation"]),
+    # seed-397 case_041: the rate limit leads by 0.31 at the lower J already
+    ({"rate_limit": (0.663, 15.8), "saturation": (0.349, 58.0)}, ["rate_limit", "saturation"]),
+    # seed-373 case_023 (R-50 saturation): the saturation leads by 1.9 at the higher J; it stays
+    ({"saturation": (2.183, 65.5), "rate_limit": (0.283, 50.0)}, ["saturation", "rate_limit"]),
+    # of three within the margin the lowest J goes ahead, the rest keep their order
+    ({"backlash": (1.0, 9.0), "saturation": (0.95, 3.0), "rate_limit": (0.9, 2.0)},
+     ["rate_limit", "backlash", "saturation"]),
+    # a head that is no nonlinearity: unchanged
+    ({"time_delay": (1.0, 9.0), "rate_limit": (0.99, 2.0)}, ["time_delay", "rate_limit"]),
+])  # fmt: skip
+def test_a_nonlinearity_of_lower_j_within_the_margin_is_ranked_ahead_of_another(cands, order):
+    """``nonlinearity_by_j``: output-error scores within the margin do not separate two servo
+    nonlinearities; the one that fits the coherent response (``J``) better goes first."""
+    from jaxgwo._diagnose import _nonlinearity_by_j
+
+    ranking = [dataclasses.replace(_scored(e, v), cost_J=j) for e, (v, j) in cands.items()]
+    margin = DiagnoseSettings().nonlinearity_by_j
+    out = _nonlinearity_by_j(ranking, margin)
+    assert [c.effects[0] for c in out] == order
+    moved = [c for c in out if "ranked_over_nonlinearity_by" in c.detail]
+    if order[0] != next(iter(cands)):
+        (m,) = moved
+        assert m is out[0] and m.detail["ranked_over_nonlinearity_by"] == pytest.approx(ranking[0].score - m.score)
+        assert m.detail["J_of_the_one_passed"] == ranking[0].cost_J
+        assert 0.0 < m.detail["ranked_over_nonlinearity_by"] < margin
+    else:
+        assert not moved
+    assert _nonlinearity_by_j(ranking, 0.0) == tuple(ranking)  # off
+    # a nonlinearity that does not beat noise never moves
+    failing = [dataclasses.replace(c, beats_noise=c is ranking[0]) for c in ranking]
+    assert _nonlinearity_by_j(failing, margin) == tuple(failing)
 
 
 def _on_paper_model(effect, score, cost_J, ok=True, **mode):
