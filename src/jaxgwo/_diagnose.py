@@ -1115,8 +1115,7 @@ def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[C
     if not ranking or ranking[0].effects != ("time_delay",) or not ranking[0].beats_noise:
         return ranking
     top = ranking[0].score
-    lags = [c for c in ranking
-            if len(c.effects) == 1 and c.effects[0] in _LAGS and c.beats_noise and top - c.score < margin]  # fmt: skip
+    lags = _passing_within(ranking, _LAGS, margin)
     if not lags:
         return ranking
     return _ahead(ranking, lags, lambda c: {"ranked_over_delay_by": top - c.score})
@@ -1130,17 +1129,25 @@ def _nonlinearity_by_j(ranking: Sequence[CandidateScore], margin: float) -> tupl
     ``ranked_over_nonlinearity_by`` and the head's ``J`` as ``J_of_the_one_passed``);
     otherwise unchanged."""
     ranking = tuple(ranking)
-    if margin <= 0 or not ranking or not ranking[0].beats_noise or len(ranking[0].effects) != 1 \
+    if not ranking or not ranking[0].beats_noise or len(ranking[0].effects) != 1 \
             or ranking[0].effects[0] not in NONLINEAR:
         return ranking
     head = ranking[0]
-    close = [c for c in ranking
-             if len(c.effects) == 1 and c.effects[0] in NONLINEAR and c.beats_noise and head.score - c.score < margin]  # fmt: skip
-    best = min(close, key=lambda c: c.cost_J)
+    best = min(_passing_within(ranking, NONLINEAR, margin), key=lambda c: c.cost_J, default=head)
     if best is head or not best.cost_J < head.cost_J:
         return ranking
     return _ahead(ranking, [best], lambda c: {"ranked_over_nonlinearity_by": head.score - c.score,
                                               "J_of_the_one_passed": head.cost_J})
+
+
+def _passing_within(ranking: tuple[CandidateScore, ...], names: Sequence[str],
+                    margin: float) -> list[CandidateScore]:
+    """The single-effect candidates of ``ranking`` (best first) whose effect is one of
+    ``names``, that beat noise and score within ``margin`` of its head, in their order
+    (:func:`_lag_over_delay`, :func:`_nonlinearity_by_j`)."""
+    top = ranking[0].score
+    return [c for c in ranking
+            if len(c.effects) == 1 and c.effects[0] in names and c.beats_noise and top - c.score < margin]  # fmt: skip
 
 
 def _ahead(ranking: tuple[CandidateScore, ...], chosen: Sequence[CandidateScore],
