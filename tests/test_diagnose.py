@@ -294,6 +294,41 @@ def test_airframe_bracket_reports_the_centre_only_for_a_delay_that_beats_noise()
     assert "airframe models" not in _params_text(kept)
 
 
+@pytest.mark.parametrize("freq, zp, zz", [(6.5, 0.03, 0.25), (5.8, 0.05, 0.2)])
+def test_mode_candidate_recovers_a_mode_the_nominal_servo_absorbed_whole(freq, zp, zz):
+    """A mode near the servo's frequency (the default plant's: 6.08 Hz, damping 0.51) is
+    absorbed whole by the paper fit: its servo becomes the resonance (damping 0.11 and
+    0.20).  Refitted from that nominal, the structural mode candidate recovers the mode and
+    the servo exactly (noise-free ``J`` to zero), because the profile is also started with
+    the servo restarted out of the mode (``_mode_scan``).  Without that restart the
+    candidate kept the absorbed servo (damping 0.03-0.05) and made the mode a broad pair on
+    its damping's box top (``J`` 4.1 and 2.2)."""
+    from scipy.optimize import least_squares
+
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import _Z_NEUTRAL, AugmentedCifer, _active_mask, fit_linear_candidates
+    from jaxgwo._effects import structural_mode_response
+    from jaxgwo._models import ParameterMap
+
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * structural_mode_response(w, freq, zp, zz),
+                     w_max=120.0)  # fmt: skip
+    cifer = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    paper_only = AugmentedCifer.from_cifer(cifer, _active_mask([]))
+    x_true = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    nominal = least_squares(lambda v: np.asarray(paper_only.residuals(jnp.asarray(np.r_[v, _Z_NEUTRAL]))), x_true,
+                            method="lm")  # fmt: skip
+    j_nominal = float(np.sum(nominal.fun**2))
+    assert np.exp(nominal.x[4]) < 0.5 * float(MODEL.zeta_s)  # the servo took the mode
+    (fit,) = fit_linear_candidates(cifer, nominal.x, [("structural_mode",)], jax.random.key(0), wolves=12,
+                                   iterations=30)  # fmt: skip
+    mode = fit.params["structural_mode"]
+    assert fit.cost_J < 1e-4 * j_nominal
+    assert mode["freq_hz"] == pytest.approx(freq, rel=1e-3)
+    assert mode["zeta_p"] == pytest.approx(zp, rel=1e-2) and mode["zeta_z"] == pytest.approx(zz, rel=1e-2)
+    assert np.exp(fit.x[4]) == pytest.approx(float(MODEL.zeta_s), rel=1e-2)
+
+
 def test_mode_profile_finds_a_mode_the_nominal_servo_absorbed():
     """The structural mode's profile (``_mode_scan``) refits the paper parameters and the
     damping at every grid frequency.  Started, as a nominal fit leaves it, from a servo
@@ -316,7 +351,7 @@ def test_mode_profile_finds_a_mode_the_nominal_servo_absorbed():
     lo = np.r_[x_bent - np.log(2.0), np.where(act, _Z_LO, _Z_NEUTRAL)]
     hi = np.r_[x_bent + np.log(2.0), np.where(act, _Z_HI, _Z_NEUTRAL + 1e-9)]
     j_bent = float(obj(jnp.asarray(np.r_[x_bent, _Z_NEUTRAL])))
-    scan = _mode_scan(obj, x_bent, _Z_NEUTRAL, lo, hi)
+    scan, _restarted = _mode_scan(obj, x_bent, _Z_NEUTRAL, lo, hi)
     best = scan[0]
     assert abs(np.exp(best[8]) / freq - 1.0) < 0.06  # within a step of the 48-point grid
     assert float(obj(jnp.asarray(best))) < 0.05 * j_bent

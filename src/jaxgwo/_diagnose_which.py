@@ -354,10 +354,18 @@ class LinearFit:
     """``{effect: {param: 1-sigma}}`` from the Jacobian of J (delta method for logs)."""
 
 
+_SERVO_ZETA_RESTART = 0.5
+"""The servo damping :func:`_mode_scan` restarts a nominal's absorbed servo from: inside the
+servo's own range (``SERVO_RANGES`` of :mod:`jaxgwo._plants`, 0.4-0.8), so that the mode,
+not the servo, starts as the lightly damped pair."""
+
+
 def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-               n_freq: int = 48) -> np.ndarray:
+               n_freq: int = 48) -> tuple[np.ndarray, np.ndarray | None]:
     """Points ``x`` of a profile of ``J`` over the structural mode's frequency, best ``J``
-    first.  A grid over the frequency (its whole box in ``[lo, hi]``, ``n_freq`` points
+    first, and the best point refitted from a servo restarted out of the mode (or ``None``).
+
+    A grid over the frequency (its whole box in ``[lo, hi]``, ``n_freq`` points
     over the vocabulary's box and as densely over a wider one: the structure step's
     reaches down to 1 Hz, and at 48 points there a 9 Hz pair behind a 60 ms delay was
     found at 6.3 Hz) and a few damping pairs (peaks and notches, sharp and broad) starts
@@ -365,22 +373,44 @@ def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarr
     every point is then refined by :func:`_profile_lm` with its frequency held.  Refining
     matters: the nominal fit absorbs a mode into the servo damping (0.42 -> 0.31 seen), and
     at the nominal's paper parameters the true mode raises ``J`` (6.1 -> 13.5) where,
-    refitted with them, it halves it (2.2)."""
+    refitted with them, it halves it (2.2).
+
+    A mode near the servo's frequency can be absorbed whole: the nominal's servo becomes
+    the resonance (seed-419 case_006, an R-50 mode at 9.58 Hz, pole damping 0.036: servo
+    9.66 Hz at damping 0.084).  Refined from there, every point keeps that servo and the
+    mode turns into a broad notch beside it (8.3 Hz at the pole damping's box top, ``J``
+    7.57).  So where the nominal's servo damping lies below :data:`_SERVO_ZETA_RESTART`
+    the grid is also started from that damping, and of those points the best whose servo
+    damping stayed at least twice the nominal's (the servo did not take the mode back) is
+    returned beside the profile: :func:`fit_linear_candidates` polishes it as well and
+    keeps the lower ``J`` (on case_006: 9.61 Hz, pole damping 0.054, zeros 0.163, servo
+    10.0 Hz at 0.29, ``J`` 7.46)."""
     n = 1 + round((n_freq - 1) * (hi[8] - lo[8]) / (_Z_HI[3] - _Z_LO[3]))
     f = np.linspace(lo[8], hi[8], n)
     damp = [(0.03, 0.2), (0.05, 0.15), (0.02, 0.3), (0.1, 0.3), (0.2, 0.05), (0.3, 0.1)]
+    x_paper = np.asarray(x_paper, float)
+    restart = x_paper.copy()
+    restart[4] = math.log(_SERVO_ZETA_RESTART)
+    starts = [x_paper, restart] if x_paper[4] < restart[4] else [x_paper]
     rows = []
-    for zp, zz in damp:
-        z = np.tile(np.asarray(z_other, float), (n, 1))
-        z[:, 3], z[:, 4], z[:, 5] = f, math.log(zp), math.log(zz)
-        rows.append(np.concatenate([np.tile(x_paper, (n, 1)), z], axis=1))
+    for xp in starts:
+        for zp, zz in damp:
+            z = np.tile(np.asarray(z_other, float), (n, 1))
+            z[:, 3], z[:, 4], z[:, 5] = f, math.log(zp), math.log(zz)
+            rows.append(np.concatenate([np.tile(xp, (n, 1)), z], axis=1))
     xs = np.clip(np.concatenate(rows), lo, hi)
     free = np.r_[np.ones(5, bool), np.asarray(objective.active, bool)]
     free[5 + 3] = False  # the profile's coordinate
     xs, j = (np.asarray(v) for v in _profile_lm(objective, jnp.asarray(xs), jnp.asarray(free), jnp.asarray(lo),
                                                 jnp.asarray(hi)))  # fmt: skip
     j = np.where(np.isfinite(j), j, np.inf)
-    return xs[np.argsort(j)]
+    restarted = None
+    k = len(damp) * n
+    if len(starts) == 2:
+        kept = (xs[k:, 4] >= x_paper[4] + math.log(2.0)) & np.isfinite(j[k:])  # the servo stayed a servo
+        if np.any(kept):
+            restarted = xs[k:][kept][int(np.argmin(j[k:][kept]))]
+    return xs[np.argsort(j)], restarted
 
 
 @eqx.filter_jit
@@ -475,7 +505,10 @@ def fit_linear_candidates(
 
     All candidates go through one :func:`jaxgwo._gwo.run_batch` call (IGWO, pack seeded at
     the nominal ``x_nominal`` in log-parameters, effect coordinates spread over their box),
-    then a bounded ``least_squares`` polish of the active coordinates.
+    then a bounded ``least_squares`` polish of the active coordinates
+    (:func:`_polish_linear`) from the pack's best, or the mode profile's where that fits
+    better, and for a mode also from the profile's best with the servo restarted out of it
+    (:func:`_mode_scan`); the lower ``J`` is kept.
     ``dependence_factor`` scales the bounds for correlated frequency points
     (``sqrt(m / m_eff)``, as in :func:`jaxgwo._identify._dependence_corrected`), or the
     residuals' own correlation does where that is the larger
@@ -489,8 +522,6 @@ def fit_linear_candidates(
     every candidate that has them (a gyro filter's cutoff measured against the attitude,
     :func:`jaxgwo._diagnose_where.gyro_path`).
     """
-    from scipy.optimize import least_squares
-
     if not candidates:
         return []
     x_nom = np.asarray(x_nominal, float)
@@ -527,9 +558,10 @@ def fit_linear_candidates(
             # mode leaves the servo damping more than a factor 2 off (0.51 -> 0.12 seen)
             scan = _mode_scan(AugmentedCifer.from_cifer(objective, act), np.clip(x_nom, lo[:5], hi[:5]), z0[0],
                               *_polish_box(lo, hi))  # fmt: skip
+            scan, restarted = scan
             k = min(n_seed // 2, scan.shape[0])
             init[n_seed - k :] = np.clip(scan[:k], lo, hi)
-            profiled[-1] = scan[0]
+            profiled[-1] = (scan[0], restarted)
         init[0, :5] = np.clip(x_nom, lo[:5], hi[:5])
         if effect_seed is not None:
             init[0, 5:] = np.clip(np.where(act, effect_seed, _Z_NEUTRAL), lo[5:], hi[5:])
@@ -542,12 +574,18 @@ def fit_linear_candidates(
                       jnp.stack([k[1] for k in cand_keys]), init_wolves=jnp.asarray(np.stack(inits)))  # fmt: skip
     best = np.asarray(res.best_position)
     out = []
-    for names, obj, lo, hi, xb, xs in zip(candidates, objs, los, his, best, profiled):
+    for names, obj, lo, hi, xb, prof in zip(candidates, objs, los, his, best, profiled):
+        xs, restarted = (None, None) if prof is None else prof
         if xs is not None and float(obj(jnp.asarray(xs))) < float(obj(jnp.asarray(xb))):
             xb = xs  # the profile's best, outside the pack's box, fits better: polish from there
         act = np.r_[np.ones(5, bool), _active_mask(names)]
         idx = np.flatnonzero(act)
-        full = xb.copy()
+        x, cost, res = _polish_linear(obj, xb, idx, lo, hi)
+        if restarted is not None:  # the profile's best from a servo restarted out of the mode (_mode_scan)
+            x_r, cost_r, res_r = _polish_linear(obj, restarted, idx, lo, hi)
+            if cost_r < cost:
+                x, cost, res = x_r, cost_r, res_r
+        full = x.copy()
 
         def fun(v, full=full, idx=idx, obj=obj):
             x = full.copy()
@@ -559,18 +597,6 @@ def fit_linear_candidates(
             x[idx] = v
             return np.asarray(_jacobian(obj, jnp.asarray(x)))[:, idx]
 
-        plo, phi = (b[idx] for b in _polish_box(lo, hi))
-        v0 = np.clip(xb[idx], plo + 1e-12, phi - 1e-12)
-        x, cost, res = xb, float(obj(jnp.asarray(xb))), None
-        try:
-            sol = least_squares(fun, v0, jac=jac, bounds=(plo, phi), method="trf", xtol=1e-10, ftol=1e-10,
-                                max_nfev=200)  # fmt: skip
-            if float(np.sum(sol.fun**2)) <= cost:
-                x = full.copy()
-                x[idx] = sol.x
-                cost, res = float(np.sum(sol.fun**2)), sol.fun  # the polish's residuals at x
-        except (ValueError, np.linalg.LinAlgError):
-            pass  # the polish stepped where the response overflows (seed-79 case_025): the pack's best stands
         Jm = jac(x[idx])
         passing = np.asarray(obj.cifer.weight) > 0
         m = int(np.sum(passing))
@@ -587,6 +613,38 @@ def fit_linear_candidates(
         params, sigma = _effect_params_and_sigma(names, x[5:], zsd)
         out.append(LinearFit(tuple(names), x, cost, params, sigma))
     return out
+
+
+def _polish_linear(obj, xb: np.ndarray, idx: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+    """A bounded ``least_squares`` polish of the coordinates ``idx`` of ``xb`` on ``obj``
+    (in :func:`_polish_box`); returns ``(x, J, residuals or None)``, ``xb`` itself where the
+    polish does not lower ``J``."""
+    from scipy.optimize import least_squares
+
+    full = xb.copy()
+
+    def fun(v):
+        x = full.copy()
+        x[idx] = v
+        return np.asarray(_residuals(obj, jnp.asarray(x)))
+
+    def jac(v):
+        x = full.copy()
+        x[idx] = v
+        return np.asarray(_jacobian(obj, jnp.asarray(x)))[:, idx]
+
+    plo, phi = (b[idx] for b in _polish_box(lo, hi))
+    v0 = np.clip(xb[idx], plo + 1e-12, phi - 1e-12)
+    x, cost, res = xb, float(obj(jnp.asarray(xb))), None
+    try:
+        sol = least_squares(fun, v0, jac=jac, bounds=(plo, phi), method="trf", xtol=1e-10, ftol=1e-10, max_nfev=200)
+        if float(np.sum(sol.fun**2)) <= cost:
+            x = full.copy()
+            x[idx] = sol.x
+            cost, res = float(np.sum(sol.fun**2)), sol.fun  # the polish's residuals at x
+    except (ValueError, np.linalg.LinAlgError):
+        pass  # the polish stepped where the response overflows (seed-79 case_025): the pack's best stands
+    return x, cost, res
 
 
 def _polish_box(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
