@@ -585,18 +585,7 @@ def fit_linear_candidates(
             x_r, cost_r, res_r = _polish_linear(obj, restarted, idx, lo, hi)
             if cost_r < cost:
                 x, cost, res = x_r, cost_r, res_r
-        full = x.copy()
-
-        def fun(v, full=full, idx=idx, obj=obj):
-            x = full.copy()
-            x[idx] = v
-            return np.asarray(_residuals(obj, jnp.asarray(x)))
-
-        def jac(v, full=full, idx=idx, obj=obj):
-            x = full.copy()
-            x[idx] = v
-            return np.asarray(_jacobian(obj, jnp.asarray(x)))[:, idx]
-
+        fun, jac = _partial_residuals(obj, x, idx)
         Jm = jac(x[idx])
         passing = np.asarray(obj.cifer.weight) > 0
         m = int(np.sum(passing))
@@ -615,31 +604,38 @@ def fit_linear_candidates(
     return out
 
 
+def _partial_residuals(obj, x: np.ndarray, idx: np.ndarray):
+    """``(fun, jac)``: ``obj``'s residuals and their Jacobian as functions of the
+    coordinates ``idx`` of ``x``, the others held at ``x``'s values."""
+    full = np.array(x, float)
+
+    def fun(v):
+        y = full.copy()
+        y[idx] = v
+        return np.asarray(_residuals(obj, jnp.asarray(y)))
+
+    def jac(v):
+        y = full.copy()
+        y[idx] = v
+        return np.asarray(_jacobian(obj, jnp.asarray(y)))[:, idx]
+
+    return fun, jac
+
+
 def _polish_linear(obj, xb: np.ndarray, idx: np.ndarray, lo: np.ndarray, hi: np.ndarray):
     """A bounded ``least_squares`` polish of the coordinates ``idx`` of ``xb`` on ``obj``
     (in :func:`_polish_box`); returns ``(x, J, residuals or None)``, ``xb`` itself where the
     polish does not lower ``J``."""
     from scipy.optimize import least_squares
 
-    full = xb.copy()
-
-    def fun(v):
-        x = full.copy()
-        x[idx] = v
-        return np.asarray(_residuals(obj, jnp.asarray(x)))
-
-    def jac(v):
-        x = full.copy()
-        x[idx] = v
-        return np.asarray(_jacobian(obj, jnp.asarray(x)))[:, idx]
-
+    fun, jac = _partial_residuals(obj, xb, idx)
     plo, phi = (b[idx] for b in _polish_box(lo, hi))
     v0 = np.clip(xb[idx], plo + 1e-12, phi - 1e-12)
     x, cost, res = xb, float(obj(jnp.asarray(xb))), None
     try:
         sol = least_squares(fun, v0, jac=jac, bounds=(plo, phi), method="trf", xtol=1e-10, ftol=1e-10, max_nfev=200)
         if float(np.sum(sol.fun**2)) <= cost:
-            x = full.copy()
+            x = xb.copy()
             x[idx] = sol.x
             cost, res = float(np.sum(sol.fun**2)), sol.fun  # the polish's residuals at x
     except (ValueError, np.linalg.LinAlgError):
