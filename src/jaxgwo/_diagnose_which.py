@@ -556,9 +556,8 @@ def fit_linear_candidates(
             # cent wide, least of all where the nominal servo has absorbed it.  The profile
             # refits the paper parameters in the polish's box (below): a strongly absorbed
             # mode leaves the servo damping more than a factor 2 off (0.51 -> 0.12 seen)
-            scan = _mode_scan(AugmentedCifer.from_cifer(objective, act), np.clip(x_nom, lo[:5], hi[:5]), z0[0],
-                              *_polish_box(lo, hi))  # fmt: skip
-            scan, restarted = scan
+            scan, restarted = _mode_scan(AugmentedCifer.from_cifer(objective, act), np.clip(x_nom, lo[:5], hi[:5]),
+                                         z0[0], *_polish_box(lo, hi))  # fmt: skip
             k = min(n_seed // 2, scan.shape[0])
             init[n_seed - k :] = np.clip(scan[:k], lo, hi)
             profiled[-1] = (scan[0], restarted)
