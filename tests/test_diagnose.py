@@ -21,7 +21,7 @@ from jaxgwo._diagnose_where import amplitude_dependence, bands_from_flags, frequ
 from jaxgwo._effects import EffectSet, time_delay_response
 from jaxgwo._metrics import rms_error
 from jaxgwo._models import PaperModel
-from jaxgwo._plants import PaperPlant
+from jaxgwo._plants import SERVO_RANGES, PaperPlant
 from jaxgwo._signals import doublet, frequency_sweep, multistep_3211, pilot_corrections
 from jaxgwo._simulate import Disturbance, simulate
 from jaxgwo._spectral import FrequencyResponse
@@ -330,6 +330,25 @@ def test_mode_candidate_recovers_a_mode_the_nominal_servo_absorbed_whole(freq, z
     assert np.exp(fit.x[4]) == pytest.approx(float(MODEL.zeta_s), rel=1e-2)
 
 
+def _stored_mode_fit(name):
+    """The structural mode candidate refitted on an objective stored from a blind case
+    (``tests/data/NAME``, see its ``what``): ``(fit, stored dict)``."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import fit_linear_candidates
+    from jaxgwo._models import ParameterMap
+
+    with open(os.path.join(os.path.dirname(__file__), "data", name)) as fh:
+        d = json.load(fh)
+    obj = CiferObjective(w=jnp.asarray(d["w"]), magnitude_db=jnp.asarray(d["magnitude_db"]),
+                         phase_deg=jnp.asarray(d["phase_deg"]), weight=jnp.asarray(d["weight"]),
+                         n=jnp.asarray(d["n"]), phase_weight=jnp.asarray(d["phase_weight"]),
+                         parameter_map=ParameterMap("paper", (True,) * 5, tuple(d["signs"])))  # fmt: skip
+    kw = {k: np.asarray(d[k]) for k in ("z_hi", "effect_seed") if d.get(k) is not None}
+    (fit,) = fit_linear_candidates(obj, np.asarray(d["x_nominal"]), [("structural_mode",)], jax.random.key(0),
+                                   wolves=12, iterations=30, dependence_factor=d["dependence_factor"], **kw)  # fmt: skip
+    return fit, {**d, "objective": obj}
+
+
 def test_mode_candidate_keeps_the_servo_a_servo_where_j_cannot_choose():
     """Seed-433 case_018 of the blind study (an R-50 plant, mode at 11.58 Hz, pole
     damping 0.021): the objective the structure step fitted beside the pair, its nominal's
@@ -339,20 +358,8 @@ def test_mode_candidate_keeps_the_servo_a_servo_where_j_cannot_choose():
     The R-50's model-form error leaves ``J`` 3 % apart, below its own sampling spread, so
     the candidate keeps the fit whose servo stayed a servo (``_RESTART_J_TOLERANCE``);
     with the lower ``J`` alone it answered the notch."""
-    from jaxgwo._cost import CiferObjective
-    from jaxgwo._diagnose_which import fit_linear_candidates
-    from jaxgwo._models import ParameterMap
-
-    with open(os.path.join(os.path.dirname(__file__), "data", "blind433_case018_mode_objective.json")) as fh:
-        d = json.load(fh)
-    obj = CiferObjective(w=jnp.asarray(d["w"]), magnitude_db=jnp.asarray(d["magnitude_db"]),
-                         phase_deg=jnp.asarray(d["phase_deg"]), weight=jnp.asarray(d["weight"]),
-                         n=jnp.asarray(d["n"]), phase_weight=jnp.asarray(d["phase_weight"]),
-                         parameter_map=ParameterMap("paper", (True,) * 5, tuple(d["signs"])))  # fmt: skip
-    x_nom = np.asarray(d["x_nominal"])
-    (fit,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], jax.random.key(0), wolves=12, iterations=30,
-                                   z_hi=np.asarray(d["z_hi"]), effect_seed=np.asarray(d["effect_seed"]),
-                                   dependence_factor=d["dependence_factor"])  # fmt: skip
+    fit, d = _stored_mode_fit("blind433_case018_mode_objective.json")
+    obj, x_nom = d["objective"], np.asarray(d["x_nominal"])
     mode, truth = fit.params["structural_mode"], d["truth"]
     assert mode["freq_hz"] == pytest.approx(truth["freq_hz"], rel=0.02)
     assert abs(mode["freq_hz"] - truth["freq_hz"]) < 2.0 * fit.sigma["structural_mode"]["freq_hz"]
@@ -360,6 +367,21 @@ def test_mode_candidate_keeps_the_servo_a_servo_where_j_cannot_choose():
     assert np.exp(fit.x[4]) > 2.0 * np.exp(x_nom[4])  # the servo let the mode go
     j_nominal = float(obj(jnp.asarray(x_nom)))
     assert fit.cost_J < j_nominal
+
+
+def test_mode_candidate_keeps_the_lower_j_where_the_servo_is_a_servo():
+    """Seed-437 case_014 of the blind study (a paper plant, mode at 21.1 Hz, pole damping
+    0.053, its nominal's servo damping 0.45): the usual fit finds the mode (20.7 Hz, ``J``
+    2.66) with the servo at 0.43, a servo's damping, so the lower ``J`` decides.  The fit
+    restarted out of the mode (``_mode_scan``) ends with the servo damping at 1.8 and a
+    broad 4.3 Hz pair, ``J`` 2.70: preferred within ``_RESTART_J_TOLERANCE`` whatever the
+    usual fit's servo (870f486), it replaced the mode."""
+    fit, d = _stored_mode_fit("blind437_case014_mode_objective.json")
+    mode, truth = fit.params["structural_mode"], d["truth"]
+    assert mode["freq_hz"] == pytest.approx(truth["freq_hz"], rel=0.05)
+    assert mode["zeta_p"] < 0.15  # lightly damped, as the truth (0.053)
+    lo, hi = SERVO_RANGES["zeta_s"]
+    assert 0.9 * lo < np.exp(fit.x[4]) < hi  # the servo stays a servo
 
 
 def test_mode_profile_finds_a_mode_the_nominal_servo_absorbed():

@@ -72,6 +72,7 @@ from ._effects import EFFECTS, rotor_flapping_response, sensor_lag_response, str
 from ._identify import ZETA_S_RANGE, _jacobian, _residuals  # the jitted residual/Jacobian pair
 from ._metrics import r_squared, theil_inequality
 from ._models import simulate_transfer_function, simulate_transfer_function_delayed
+from ._plants import SERVO_RANGES
 
 __all__ = [
     "FREQUENCY_DOMAIN",
@@ -362,12 +363,17 @@ not the servo, starts as the lightly damped pair."""
 _RESTART_J_TOLERANCE = 1.05
 """How much higher a ``J`` :func:`fit_linear_candidates` accepts from the mode fit whose
 servo stayed a servo (:func:`_mode_scan`'s restart) than from the usual one, and still keeps
-it.  Where the nominal's servo absorbed the mode, the usual fit leaves it there and makes
-the mode a broad notch beside it; on an R-50 plant its model-form error can let that fit
-``J`` a little better than the truth does (seed-433 case_018: 6.88 against 7.10 for the
-right 11.66 Hz mode; 389/060: 7.25 against 7.42 refitted from the truth).  Differences of
-a few per cent lie well inside ``J``'s own sampling spread (about ``sqrt(2 / m_eff)``, 20 %
-at 50 independent points), so there the physically placed servo decides."""
+it, where the usual fit's servo damping lies below a servo's range (``SERVO_RANGES`` of
+:mod:`jaxgwo._plants`, 0.4-0.8): there the usual fit has left the mode in the servo and
+made it a broad notch beside it, and on an R-50 plant the model-form error can let that
+fit ``J`` a little better than the truth does (seed-433 case_018: 6.88 against 7.10 for
+the right 11.66 Hz mode, servo damping 0.038 against 0.29; 389/060: 7.25 against 7.42
+refitted from the truth).  Differences of a few per cent lie well inside ``J``'s own
+sampling spread (about ``sqrt(2 / m_eff)``, 20 % at 50 independent points), so there the
+physically placed servo decides.  Where the usual fit's servo is a servo, the lower ``J``
+decides: seed-437 case_014 (a paper plant, 21.1 Hz mode, nominal servo damping 0.45)
+restarted to damping 0.9 or more and a broad 4.3 Hz pair within 2 % of the ``J`` of the
+usual 20.7 Hz fit."""
 
 
 def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -393,7 +399,8 @@ def _mode_scan(objective: AugmentedCifer, x_paper: np.ndarray, z_other: np.ndarr
     the grid is also started from that damping, and of those points the best whose servo
     damping stayed at least twice the nominal's (the servo did not take the mode back) is
     returned beside the profile: :func:`fit_linear_candidates` polishes it as well and
-    keeps it unless the usual fit's ``J`` is lower by more than
+    keeps the lower ``J``, or, where the usual fit's servo damping lies below a servo's
+    range, the restarted fit unless the usual one's ``J`` is lower by more than
     :data:`_RESTART_J_TOLERANCE` (on case_006: 9.61 Hz, pole damping 0.054, zeros 0.163,
     servo 10.0 Hz at 0.29, ``J`` 7.46 against the notch's 7.57)."""
     n = 1 + round((n_freq - 1) * (hi[8] - lo[8]) / (_Z_HI[3] - _Z_LO[3]))
@@ -519,8 +526,9 @@ def fit_linear_candidates(
     then a bounded ``least_squares`` polish of the active coordinates
     (:func:`_polish_linear`) from the pack's best, or the mode profile's where that fits
     better, and for a mode also from the profile's best with the servo restarted out of it
-    (:func:`_mode_scan`); the restarted fit is kept unless the other's ``J`` is lower by
-    more than :data:`_RESTART_J_TOLERANCE`.
+    (:func:`_mode_scan`); the lower ``J`` is kept, but where the usual fit's servo damping
+    lies below a servo's range the restarted fit is kept unless the other's ``J`` is lower
+    by more than :data:`_RESTART_J_TOLERANCE`.
     ``dependence_factor`` scales the bounds for correlated frequency points
     (``sqrt(m / m_eff)``, as in :func:`jaxgwo._identify._dependence_corrected`), or the
     residuals' own correlation does where that is the larger
@@ -594,7 +602,8 @@ def fit_linear_candidates(
         x, cost, res = _polish_linear(obj, xb, idx, lo, hi)
         if restarted is not None:  # the profile's best from a servo restarted out of the mode (_mode_scan)
             x_r, cost_r, res_r = _polish_linear(obj, restarted, idx, lo, hi)
-            if cost_r < _RESTART_J_TOLERANCE * cost:
+            absorbed = math.exp(x[4]) < SERVO_RANGES["zeta_s"][0]  # the usual fit's servo took the mode
+            if cost_r < (_RESTART_J_TOLERANCE if absorbed else 1.0) * cost:
                 x, cost, res = x_r, cost_r, res_r
         fun, jac = _partial_residuals(obj, x, idx)
         Jm = jac(x[idx])
