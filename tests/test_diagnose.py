@@ -6,8 +6,8 @@ import dataclasses
 import functools
 import json
 import math
-import os
 import warnings
+from pathlib import Path
 
 import equinox as eqx
 import jax
@@ -337,8 +337,7 @@ def _stored_mode_fit(name):
     from jaxgwo._diagnose_which import fit_linear_candidates
     from jaxgwo._models import ParameterMap
 
-    with open(os.path.join(os.path.dirname(__file__), "data", name)) as fh:
-        d = json.load(fh)
+    d = json.loads((Path(__file__).resolve().parent / "data" / name).read_text())
     obj = CiferObjective(w=jnp.asarray(d["w"]), magnitude_db=jnp.asarray(d["magnitude_db"]),
                          phase_deg=jnp.asarray(d["phase_deg"]), weight=jnp.asarray(d["weight"]),
                          n=jnp.asarray(d["n"]), phase_weight=jnp.asarray(d["phase_weight"]),
