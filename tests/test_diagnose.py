@@ -2098,6 +2098,8 @@ def test_pair_free_nonlinearity_must_not_fit_j_worse_than_its_null(cut, corrobor
                                       ({"alpha_held_out_first": 1.0}, r"alpha_held_out_first must be a level in \[0, 1\)"),
                                       ({"alpha_coupling_gain": -1e-5}, r"alpha_coupling_gain must be a level in \[0, 1\)"),
                                       ({"alpha_resonance": 1.5}, r"alpha_resonance must be a level in \[0, 1\)"),
+                                      ({"alpha_lag_on_structure": 1.0},
+                                       r"alpha_lag_on_structure must be a level in \[0, 1\)"),
                                       ({"j_null_ratio": 0.0}, "j_null_ratio must be a positive J ratio"),
                                       ({"wolves": 3}, "wolves")])  # fmt: skip
 def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
@@ -2141,6 +2143,45 @@ def test_lags_within_the_margin_are_ranked_ahead_of_a_delay(scores, order):
     # a lag that does not beat noise never moves
     failing = [_scored(e, v, ok=e not in ("rotor_flapping", "sensor_lag")) for e, v in scores.items()]
     assert _lag_over_delay(failing, 0.15) == tuple(failing)
+
+
+def _delay(delay_s, score, ok=True):
+    return dataclasses.replace(_scored("time_delay", score, ok), params={"time_delay": {"delay_s": delay_s}})
+
+
+@pytest.mark.parametrize("head, scores, order", [
+    # seed-383 case_050 (R-50, a 19.3 ms flapping lag): the delay fitted 8.4 ms led by 0.02
+    (_delay(0.0084, 0.59), {"rotor_flapping": 0.57, "backlash": -9.0}, ["rotor_flapping", "time_delay", "backlash"]),
+    # both lags move, in their order, with no score margin
+    (_delay(0.0050, 3.0), {"backlash": 1.0, "sensor_lag": 0.5, "rotor_flapping": 0.2},
+     ["sensor_lag", "rotor_flapping", "time_delay", "backlash"]),
+    # seed-435 case_061 (R-50, a true 18.9 ms delay fitted 16.4): the delay stays
+    (_delay(0.0164, 0.56), {"rotor_flapping": 0.50}, ["time_delay", "rotor_flapping"]),
+    # just inside the vocabulary (10 ms, less its 5 % margin): the delay stays
+    (_delay(0.0096, 0.56), {"rotor_flapping": 0.50}, ["time_delay", "rotor_flapping"]),
+    # only a delay at the head, and only one that beats noise
+    (_scored("backlash", 2.0), {"time_delay": 1.0, "rotor_flapping": 0.5}, ["backlash", "time_delay", "rotor_flapping"]),
+    (_delay(0.005, -9.0, ok=False), {"rotor_flapping": -9.5}, ["time_delay", "rotor_flapping"]),
+])  # fmt: skip
+def test_lags_go_ahead_of_a_delay_shorter_than_the_vocabularys(head, scores, order):
+    """On top of a structure finding a delay fitted below the vocabulary's 10 ms is a lag's
+    imitation (beside an R-50's flybar pair a flapping lag fits as a 4-10 ms delay): the
+    passing lags go ahead of it whatever their score, and each records the delay."""
+    from jaxgwo._diagnose import _DELAY_FLOOR_S, _lag_over_short_delay
+
+    assert _DELAY_FLOOR_S == pytest.approx(0.0095)
+    ranking = [head] + [_scored(e, v, ok=v > -9.0) for e, v in scores.items()]
+    out = _lag_over_short_delay(ranking)
+    assert [c.effects[0] for c in out] == order
+    for c in out:
+        moved = c.effects[0] in ("rotor_flapping", "sensor_lag") and order.index(c.effects[0]) < order.index(
+            head.effects[0])
+        assert ("ranked_over_short_delay_s" in c.detail) == moved
+        if moved:
+            assert c.detail["ranked_over_short_delay_s"] == head.params["time_delay"]["delay_s"]
+    # a lag that does not beat noise never moves
+    failing = [head] + [_scored(e, v, ok=False) for e, v in scores.items()]
+    assert _lag_over_short_delay(failing) == tuple(failing)
 
 
 @pytest.mark.parametrize("cands, order", [

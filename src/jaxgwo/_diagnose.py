@@ -324,6 +324,23 @@ class DiagnoseSettings:
     against the paper model only, not one on top of a structure finding: every case it
     moved there was a paper plant, and on an R-50 with its extra mode a true 19 ms delay
     led its lags by only 0.11 (seed-31 case_043, estimated at 19.6 ms).
+    ``alpha_lag_on_structure``: on top of a structure finding, the level of the ``J``
+    F-test of a ``rotor_flapping`` or ``time_delay`` fit (where above ``alpha``), and a
+    delay fitted below the vocabulary's range then ranks after a passing lag
+    (:func:`_lag_over_short_delay`).  The pair model leaves the airframe's model-form
+    error in ``J``, which the F-test counts as noise, so the test is conservative there:
+    on the 33 R-50 ``none`` cases of the stored draws 367-441 every such fit had p 0.03
+    or more (31 of them returned to no lag or delay at all, ``J`` unchanged), while the
+    30 R-50 flapping lags (10-27 ms) fitted 0.7-11 ms at p 1e-4 to 0.8, one of them
+    named.  Beside the flybar's pair a lag inside the rotor/fuselage loop fits as well as
+    a delay of 4-10 ms, below the vocabulary's 10 ms, where the R-50's true delays fitted
+    9.1 ms (for 11.0) and 16-83 ms.  Replayed on those draws' stored rankings (1024 effect
+    cases; ``/work/runs/s62/replay.py``) the two together name ten more R-50 flapping lags
+    and an R-50 delay, make a flapping lag answered ``none`` a delay, and change no other
+    verdict.  Rediagnosed (37 R-50 cases of them, ``/work/runs/s62/N1.json``): 14 of the
+    20 flapping lags among them are named (one before); the delays, gyro filters,
+    saturations and ``none`` cases keep their verdicts.  Set there, in sample.
+    ``0`` switches it off (``alpha`` alone, every delay where it ranks).
     ``nonlinearity_by_j``: when the best candidate is a servo nonlinearity and another
     that also beats noise scores within this margin of it with a lower ``J``, the one of
     lowest ``J`` among them is ranked first (:func:`_nonlinearity_by_j`): their scores, read
@@ -356,6 +373,7 @@ class DiagnoseSettings:
     nsigma: float = 3.0
     structure_zeta_z: float = 1.0
     lag_over_delay: float = 0.15
+    alpha_lag_on_structure: float = 1e-2
     nonlinearity_by_j: float = 0.15
     candidates: tuple[str, ...] = tuple(EFFECTS)
     nonlinear_wolves: int = 12
@@ -376,7 +394,7 @@ class DiagnoseSettings:
         _need_int("nonlinear_refine_rows", self.nonlinear_refine_rows, 1,
                   "each nonlinear candidate is refined from its best profile rows")
         _need_int("nonlinear_polish_steps", self.nonlinear_polish_steps, 1, "L-BFGS-B steps of the nonlinear finish")
-        for name in ("alpha_held_out_first", "alpha_coupling_gain", "alpha_resonance"):
+        for name in ("alpha_held_out_first", "alpha_coupling_gain", "alpha_resonance", "alpha_lag_on_structure"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0.0 <= v < 1.0):
                 raise ValueError(f"{name} must be a level in [0, 1) (0: off), got {v!r}.")
@@ -1119,6 +1137,40 @@ def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[C
     if not lags:
         return ranking
     return _ahead(ranking, lags, lambda c: {"ranked_over_delay_by": top - c.score})
+
+
+_LEVEL_ON_STRUCTURE = (("rotor_flapping",), ("time_delay",))
+"""The candidates whose ``J`` F-test on top of a structure finding is read at
+``alpha_lag_on_structure`` (:class:`DiagnoseSettings`)."""
+_DELAY_FLOOR_S = EFFECTS["time_delay"].ranges[0][0] * (1.0 - _RESONANCE_BAND_MARGIN)
+"""The shortest fitted ``time_delay`` that counts as one of the vocabulary's delays (10-80
+ms), with :data:`_RESONANCE_BAND_MARGIN` below its floor: on top of a structure finding a
+shorter one is a lag's imitation (:func:`_lag_over_short_delay`)."""
+
+
+def _lag_over_short_delay(ranking: Sequence[CandidateScore]) -> tuple[CandidateScore, ...]:
+    """``ranking`` (best first, on top of a structure finding) with the passing lags moved
+    ahead of a passing ``time_delay`` at its head that was fitted shorter than
+    :data:`_DELAY_FLOOR_S`, in their order (each one's ``detail`` then records the delay as
+    ``ranked_over_short_delay_s``); otherwise unchanged.
+
+    Beside an R-50's flybar pair a flapping lag inside the rotor/fuselage loop fits ``J``
+    as well as a delay of 4-10 ms, often a little better (``J`` lower by 0.05-0.9 on the
+    R-50 flapping lags of the stored draws 367-441, whose lags fitted 0.7-11 ms), while
+    the R-50's true delays fitted 9.1 ms (for 11.0) and 16-83 ms.  Unlike
+    :func:`_lag_over_delay` (the paper model alone), no score margin: a delay shorter than
+    any of the vocabulary's is no delay of it.  Both lags move, as there; the gyro path
+    then orders them (:func:`_gyro_path_order`)."""
+    ranking = tuple(ranking)
+    if not ranking or ranking[0].effects != ("time_delay",) or not ranking[0].beats_noise:
+        return ranking
+    delay = ranking[0].params["time_delay"]["delay_s"]
+    if not delay < _DELAY_FLOOR_S:
+        return ranking
+    lags = _passing_within(ranking, _LAGS, math.inf)
+    if not lags:
+        return ranking
+    return _ahead(ranking, lags, lambda c: {"ranked_over_short_delay_s": delay})
 
 
 def _nonlinearity_by_j(ranking: Sequence[CandidateScore], margin: float) -> tuple[CandidateScore, ...]:
@@ -1983,8 +2035,12 @@ def diagnose(
                            extra_p=gyro.p_value, j_required=False, veto=False)  # fmt: skip
                 lin_scores.append((own, sc, None, None, {"time_domain_path": 0.0, "cutoff_from_gyro_path": 1.0}))
                 continue
+            # on a structure finding a lag's or delay's J F-test is conservative (DiagnoseSettings:
+            # alpha_lag_on_structure)
+            level = max(settings.alpha, settings.alpha_lag_on_structure) \
+                if base.linear and own in _LEVEL_ON_STRUCTURE else None
             sc = score(base, own, {e: f.params[e] for e in own}, {e: f.sigma[e] for e in own}, spec, f.cost_J,
-                       base.cost_J, k, j_resonance=True)  # fmt: skip
+                       base.cost_J, k, j_resonance=True, alpha=level)  # fmt: skip
             # The time-domain check: the same effect refitted by output error against the null
             # refit, from the J fit and from that effect on the null's servo and rotor term.
             # J weights the response's coherent points, the output error the input's power;
@@ -2003,12 +2059,15 @@ def diagnose(
             lin_scores.append(time_domain_check(base, own, sc, z, f.x, td_base, f.effects, base.linear, mode_starts))
         if base.linear == ("structural_mode",) and "structural_mode" in names:
             lin_scores.append(second_pole_pair(base, jax.random.fold_in(k_lin, 7)))
-        j_found = any(sc.beats_noise for _o, sc, *_r in lin_scores)
+        # a linear effect J finds at alpha (not one passed at the structure's level only)
+        j_found = any(sc.beats_noise and sc.train_p < settings.alpha for _o, sc, *_r in lin_scores)
         for own, sc, sc_td, td_spec, det in lin_scores:
             if sc_td is not None:
                 det["td_p_J_worse"] = j_worse_p(sc_td, m_eff)
             if sc.detail.get("passed_as_resonance_found_by_J"):  # score() chose that floor
                 det["passed_as_resonance_found_by_J"] = 1.0
+            if sc.beats_noise and not sc.train_p < settings.alpha:
+                det["passed_at_structure_level"] = 1.0
             if _takes_time_domain_path(sc, sc_td, j_found, settings.alpha, settings.structure_zeta_z, m_eff=m_eff):
                 sc, specs[own] = sc_td, td_spec
                 det["time_domain_path"] = 1.0
@@ -2232,7 +2291,9 @@ def diagnose(
         k_lin_s, k_nl_s = jax.random.split(jax.random.fold_in(key, 1))
         scored, specs, fits, lin_from, _oe, refit = rank(base_s, cands, k_lin_s, k_nl_s, 3,
                                                          "which, on top of the extra mode", prior=prior)  # fmt: skip
-        ranking = tuple(sorted(scored, key=_best_first))  # no lag_over_delay on top of the mode: see its docstring
+        # no lag_over_delay on top of the mode (see its docstring); a delay below the vocabulary's is a lag's
+        ranking = _lag_over_short_delay(sorted(scored, key=_best_first)) if settings.alpha_lag_on_structure \
+            else tuple(sorted(scored, key=_best_first))
     ranking = _gyro_path_order(ranking, gyro, settings.alpha)
     ranking = _nonlinearity_by_j(ranking, settings.nonlinearity_by_j)
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
