@@ -1638,16 +1638,30 @@ def test_no_effect_case_answers_none():
             f"{worse:.3f} against the paper model refitted by output error, z -2.5)") in text
 
 
-def test_an_extra_pole_pair_is_structure_not_an_effect():
+def test_an_extra_pole_pair_is_structure_not_an_effect(monkeypatch):
     """A plant with a pole pair the paper model lacks (a 9 Hz mode at damping 0.15 whose
     zeros are real, like an R-50's coupled rotor mode) and no effect: the paper-model
     ranking finds a structural_mode with zero damping far above a resonance's; that is
     reported as structure, kept, and no effect beats noise on top of it, nor a resonance
-    fitted beside it."""
+    fitted beside it, though the lag's and delay's ``J`` F-tests are read at
+    ``alpha_lag_on_structure`` there (and at ``alpha`` on the paper model alone)."""
+    import jaxgwo._diagnose as D
+
+    levels: dict[tuple[str, ...], set[float]] = {}
+    scored = D.score_candidate
+
+    def spy(effects, *a, **kw):
+        levels.setdefault(tuple(effects), set()).add(kw["alpha"])
+        return scored(effects, *a, **kw)
+
+    monkeypatch.setattr(D, "score_candidate", spy)
     train, val = _case("structural_mode", seed=4, freq_hz=9.0, zeta_p=0.15, zeta_z=1.5)
     stages: list[tuple[int, str]] = []
     d = diagnose(train, val, "lateral", SETTINGS, progress=lambda done, note: stages.append((done, note)))
     assert d.structure is not None
+    for lag in (("rotor_flapping",), ("time_delay",)):
+        assert levels[lag] == {SETTINGS.alpha, SETTINGS.alpha_lag_on_structure}
+    assert levels[("sensor_lag",)] == levels[("structural_mode",)] == {SETTINGS.alpha}
     _check_stages(stages, structure=True)
     sm = d.structure.params["structural_mode"]
     assert abs(sm["freq_hz"] - 9.0) < 0.15 * 9.0 and sm["zeta_z"] > SETTINGS.structure_zeta_z
