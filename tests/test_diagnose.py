@@ -1662,6 +1662,13 @@ def test_an_extra_pole_pair_is_structure_not_an_effect(monkeypatch):
     for lag in (("rotor_flapping",), ("time_delay",)):
         assert levels[lag] == {SETTINGS.alpha, SETTINGS.alpha_lag_on_structure}
     assert levels[("sensor_lag",)] == levels[("structural_mode",)] == {SETTINGS.alpha}
+    # a lag named at that level, over a delay shorter than the vocabulary's, says both
+    (lag,) = [c for c in d.ranking if c.effects == ("rotor_flapping",)]
+    for detail, said in (({"passed_at_structure_level": 1.0, "ranked_over_short_delay_s": 0.0084}, True), ({}, False)):
+        won = dataclasses.replace(lag, beats_noise=True, detail=detail)
+        text = dataclasses.replace(d, ranking=(won,), verdict="rotor_flapping").summary()
+        assert ("passes at the level read beside the airframe's pole pair" in text) == said
+        assert ("A time delay of 8.4 ms fits as well or better" in text) == said
     _check_stages(stages, structure=True)
     sm = d.structure.params["structural_mode"]
     assert abs(sm["freq_hz"] - 9.0) < 0.15 * 9.0 and sm["zeta_z"] > SETTINGS.structure_zeta_z

@@ -662,6 +662,18 @@ class Diagnosis:
                     f"the held-out records do not confirm it (z {top.z_score:.1f}), as records that excite "
                     f"{mode['freq_hz']:.3g} Hz little cannot. Held-out records with a sweep through it would confirm it."
                 )
+            if top.detail.get("passed_at_structure_level"):
+                lines.append(
+                    f"Its J evidence (p {top.train_p:.2g}) passes at the level read beside the airframe's pole pair "
+                    "(alpha_lag_on_structure), not at alpha: the pair model's own misfit makes J's F-test "
+                    "conservative there, but this is weaker evidence than a finding at alpha."
+                )
+            if "ranked_over_short_delay_s" in top.detail:
+                lines.append(
+                    f"A time delay of {1e3 * top.detail['ranked_over_short_delay_s']:.3g} ms fits as well or better, "
+                    "shorter than any of the vocabulary's delays (10-80 ms): beside the airframe's pole pair a lag "
+                    "imitates one."
+                )
             if "J_over_pair_J" in top.detail:
                 lines.append(
                     f"On the paper model a broad pole pair near {top.detail['over_pair_freq_hz']:.3g} Hz (real zeros) "
