@@ -671,8 +671,8 @@ class Diagnosis:
             if "ranked_over_short_delay_s" in top.detail:
                 lines.append(
                     f"A time delay of {1e3 * top.detail['ranked_over_short_delay_s']:.3g} ms fits as well or better, "
-                    "shorter than any of the vocabulary's delays (10-80 ms): beside the airframe's pole pair a lag "
-                    "imitates one."
+                    f"shorter than any of the vocabulary's delays ({_DELAY_RANGE_MS}): beside the airframe's pole "
+                    "pair a lag imitates one."
                 )
             if "J_over_pair_J" in top.detail:
                 lines.append(
@@ -1135,6 +1135,12 @@ def _best_first(c: CandidateScore) -> float:
     return -c.score if math.isfinite(c.score) else math.inf
 
 
+def _passing_delay_at_head(ranking: tuple[CandidateScore, ...]) -> bool:
+    """Whether ``ranking`` (best first) is headed by a ``time_delay`` that beats noise
+    (:func:`_lag_over_delay`, :func:`_lag_over_short_delay`)."""
+    return bool(ranking) and ranking[0].effects == ("time_delay",) and ranking[0].beats_noise
+
+
 def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[CandidateScore, ...]:
     """``ranking`` (best first) with the passing lags that score within ``margin`` of a
     ``time_delay`` at its head moved ahead of it, in their order (:class:`DiagnoseSettings`,
@@ -1142,7 +1148,7 @@ def _lag_over_delay(ranking: Sequence[CandidateScore], margin: float) -> tuple[C
     ``ranked_over_delay_by``); otherwise unchanged.  Both lags move: no cyclic input
     separates them (:data:`SEPARATING_EXCITATION`)."""
     ranking = tuple(ranking)
-    if not ranking or ranking[0].effects != ("time_delay",) or not ranking[0].beats_noise:
+    if not _passing_delay_at_head(ranking):
         return ranking
     top = ranking[0].score
     lags = _passing_within(ranking, _LAGS, margin)
@@ -1158,6 +1164,8 @@ _DELAY_FLOOR_S = EFFECTS["time_delay"].ranges[0][0] * (1.0 - _RESONANCE_BAND_MAR
 """The shortest fitted ``time_delay`` that counts as one of the vocabulary's delays (10-80
 ms), with :data:`_RESONANCE_BAND_MARGIN` below its floor: on top of a structure finding a
 shorter one is a lag's imitation (:func:`_lag_over_short_delay`)."""
+_DELAY_RANGE_MS = "{:g}-{:g} ms".format(*(1e3 * v for v in EFFECTS["time_delay"].ranges[0]))
+"""The vocabulary's delays, as the summary names them beside :data:`_DELAY_FLOOR_S`."""
 
 
 def _lag_over_short_delay(ranking: Sequence[CandidateScore]) -> tuple[CandidateScore, ...]:
@@ -1174,7 +1182,7 @@ def _lag_over_short_delay(ranking: Sequence[CandidateScore]) -> tuple[CandidateS
     any of the vocabulary's is no delay of it.  Both lags move, as there; the gyro path
     then orders them (:func:`_gyro_path_order`)."""
     ranking = tuple(ranking)
-    if not ranking or ranking[0].effects != ("time_delay",) or not ranking[0].beats_noise:
+    if not _passing_delay_at_head(ranking):
         return ranking
     delay = ranking[0].params["time_delay"]["delay_s"]
     if not delay < _DELAY_FLOOR_S:
@@ -2303,9 +2311,9 @@ def diagnose(
         k_lin_s, k_nl_s = jax.random.split(jax.random.fold_in(key, 1))
         scored, specs, fits, lin_from, _oe, refit = rank(base_s, cands, k_lin_s, k_nl_s, 3,
                                                          "which, on top of the extra mode", prior=prior)  # fmt: skip
-        # no lag_over_delay on top of the mode (see its docstring); a delay below the vocabulary's is a lag's
-        ranking = _lag_over_short_delay(sorted(scored, key=_best_first)) if settings.alpha_lag_on_structure \
-            else tuple(sorted(scored, key=_best_first))
+        ranking = tuple(sorted(scored, key=_best_first))  # no lag_over_delay on top of the mode: see its docstring
+        if settings.alpha_lag_on_structure:  # a delay below the vocabulary's is a lag's
+            ranking = _lag_over_short_delay(ranking)
     ranking = _gyro_path_order(ranking, gyro, settings.alpha)
     ranking = _nonlinearity_by_j(ranking, settings.nonlinearity_by_j)
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
