@@ -528,10 +528,18 @@ def test_a_resonance_taken_for_the_structure_pair_is_refitted_beside_the_flybar(
     step's box takes the resonance, with real zeros; from it
     :func:`fit_flybar_and_resonance` refits the pair below the vocabulary's floor and the
     resonance beside it, recovering both and fitting ``J`` far better.  The trigger,
-    :func:`_resonance_taken_for_structure`: a lightly damped pair above the floor, not a
-    flybar's pair below it nor one a lag pressed up."""
+    :func:`_pair_pressed_up`: any pair above the floor, lightly damped or broad (this one
+    fits poles 0.24, which the trigger before session 63 let stand), not a flybar's pair
+    below the floor or on it.  A broad pair is replaced only by a refit under the floor
+    (:func:`_under_the_floor`), a lightly damped one
+    (:func:`_resonance_taken_for_structure`) by one on it as well."""
     from jaxgwo._cost import CiferObjective
-    from jaxgwo._diagnose import _resonance_taken_for_structure, fit_flybar_and_resonance
+    from jaxgwo._diagnose import (
+        _pair_pressed_up,
+        _resonance_taken_for_structure,
+        _under_the_floor,
+        fit_flybar_and_resonance,
+    )
     from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO_STRUCTURE, fit_linear_candidates
     from jaxgwo._effects import structural_mode_response
     from jaxgwo._models import ParameterMap
@@ -552,12 +560,19 @@ def test_a_resonance_taken_for_the_structure_pair_is_refitted_beside_the_flybar(
     got = beside.params["structural_mode"]
     assert [got[k] for k in ("freq_hz", "zeta_p", "zeta_z")] == pytest.approx(list(res), rel=0.01)
     np.testing.assert_allclose(np.exp(beside.x[:5]), np.abs(np.asarray(MODEL.to_array(), float)), rtol=0.01)
+    assert m["zeta_p"] > 0.15 and _pair_pressed_up(m)  # broad, and refitted beside the flybar all the same
+    assert _pair_pressed_up({"freq_hz": 17.6, "zeta_p": 0.07, "zeta_z": 8.8})  # seed-149 case_004
+    assert _pair_pressed_up({"freq_hz": 4.51, "zeta_p": 0.66, "zeta_z": 2.29})  # 435/055, a 10.9 Hz R-50 mode's
+    assert _pair_pressed_up({"freq_hz": 8.7, "zeta_p": 0.32, "zeta_z": 4.5})  # a lag's pressed pair
+    assert not _pair_pressed_up({"freq_hz": 2.03, "zeta_p": 0.05, "zeta_z": 0.9})  # below the floor
+    assert not _pair_pressed_up({"freq_hz": 3.0, "zeta_p": 0.6, "zeta_z": 1.8})  # on it: fit_beside_flybar's box
+    assert _under_the_floor(low.params["structural_mode"])
+    assert not _under_the_floor({"freq_hz": 3.0, "zeta_p": 0.61, "zeta_z": 1.73})  # 433/018's refit, on the edge
+    assert _under_the_floor({"freq_hz": 2.95, "zeta_p": 0.55, "zeta_z": 1.22})  # 445/032's, just under it
     assert _resonance_taken_for_structure({"freq_hz": 17.6, "zeta_p": 0.07, "zeta_z": 8.8})  # seed-149 case_004
-    assert not _resonance_taken_for_structure({"freq_hz": 2.03, "zeta_p": 0.05, "zeta_z": 0.9})  # below the floor
-    assert not _resonance_taken_for_structure({"freq_hz": 8.7, "zeta_p": 0.32, "zeta_z": 4.5})  # a lag's pressed pair
     assert _resonance_taken_for_structure({"freq_hz": 14.45, "zeta_p": 0.134, "zeta_z": 6.89})  # seed-199 case_071
-    assert not _resonance_taken_for_structure({"freq_hz": 6.0, "zeta_p": 0.155, "zeta_z": 3.0})  # least pressed seen
-    assert not _resonance_taken_for_structure(m)  # noise-free, the one pair fits poles 0.24: no trigger
+    assert not _resonance_taken_for_structure({"freq_hz": 8.7, "zeta_p": 0.32, "zeta_z": 4.5})  # a lag's pressed pair
+    assert not _resonance_taken_for_structure(m)  # noise-free, the one pair fits poles 0.24: broad
 
 
 def _mode_np(w, freq_hz, zeta_p, zeta_z):
@@ -2121,6 +2136,7 @@ def test_pair_free_nonlinearity_must_not_fit_j_worse_than_its_null(cut, corrobor
                                       ({"alpha_resonance": 1.5}, r"alpha_resonance must be a level in \[0, 1\)"),
                                       ({"alpha_lag_on_structure": 1.0},
                                        r"alpha_lag_on_structure must be a level in \[0, 1\)"),
+                                      ({"alpha_pressed_pair": -0.05}, r"alpha_pressed_pair must be a level in \[0, 1\)"),
                                       ({"j_null_ratio": 0.0}, "j_null_ratio must be a positive J ratio"),
                                       ({"wolves": 3}, "wolves")])  # fmt: skip
 def test_diagnose_settings_reject_meaningless_thresholds(kw, what):
