@@ -1687,6 +1687,9 @@ def test_an_extra_pole_pair_is_structure_not_an_effect(monkeypatch):
     _check_stages(stages, structure=True)
     sm = d.structure.params["structural_mode"]
     assert abs(sm["freq_hz"] - 9.0) < 0.15 * 9.0 and sm["zeta_z"] > SETTINGS.structure_zeta_z
+    # broad and above 3 Hz, it was refitted beside the flybar, and that refit did not earn
+    # its parameters (alpha_pressed_pair): without the test a 1.9 Hz pair replaced it
+    assert "pressed_pair_hz" not in d.structure.detail
     assert d.structure.val_r2 > d.nominal_r2 and d.paper_ranking[0].effects == ("structural_mode",)
     assert d.verdict == "none" and not any(c.beats_noise for c in d.ranking)
     # a resonance is still a candidate, fitted beside the held pair, lightly damped; none here
@@ -2444,7 +2447,9 @@ def test_the_j_f_test_against_scipy_and_its_floor():
 def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
     """Seed-173 case_026 (a rate limit) was called ``rotor_flapping`` by a refit whose lag
     sat on the box's 0.2 ms floor, seed-137 case_052 (a rate limit) ``time_delay`` by one
-    with no delay: what passed was the servo and rotor term moving, not the effect."""
+    with no delay, fresh seed 455's case_059 (``none``) by one at 0.12 ms and then by a
+    pole pair whose zeros cancel it: what passed was the servo and rotor term moving, not
+    the effect."""
     from jaxgwo._diagnose import _takes_time_domain_path
     from jaxgwo._diagnose_which import _FLAP_LO_TIME_DOMAIN_S
 
@@ -2456,6 +2461,9 @@ def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
 
     for effect, gone, there in (("rotor_flapping", {"tau_f": _FLAP_LO_TIME_DOMAIN_S}, {"tau_f": 0.012}),
                                 ("time_delay", {"delay_s": 1e-30}, {"delay_s": 0.004}),
+                                ("time_delay", {"delay_s": 1.2e-4}, {"delay_s": 0.0119}),  # 455/059, none
+                                ("structural_mode", {"freq_hz": 3.02, "zeta_p": 0.0199, "zeta_z": 0.0200},
+                                 {"freq_hz": 12.04, "zeta_p": 0.0578, "zeta_z": 0.0985}),  # 455/059; 397/003
                                 ("sensor_lag", {"cutoff_hz": 100.0}, {"cutoff_hz": 30.0})):
         assert not _takes_time_domain_path(j_none, td(effect, **gone), j_found=False, alpha=1e-3, m_eff=40.0)
         assert _takes_time_domain_path(j_none, td(effect, **there), j_found=False, alpha=1e-3, m_eff=40.0)
