@@ -2313,10 +2313,13 @@ def diagnose(
             if w_sc.beats_noise and _airframe_pair(f_w.params["structural_mode"], settings.structure_zeta_z):
                 f_sm, sm_spec, structure = f_w, w_spec, w_sc
                 paper_ranking = tuple(sorted((w_sc, *ranking[1:]), key=_best_first))
+        # a lightly damped pair is always refitted beside the flybar; a broad one only where
+        # it may be replaced (DiagnoseSettings: alpha_pressed_pair, 0 off)
+        light = _resonance_taken_for_structure(structure.params["structural_mode"])
         if not _airframe_pair(structure.params["structural_mode"], settings.structure_zeta_z):
             # a mode on the vocabulary's floor whose wider refit is no airframe pair either
             structure, paper_ranking = None, ()
-        elif _pair_pressed_up(structure.params["structural_mode"]):
+        elif _pair_pressed_up(structure.params["structural_mode"]) and (light or settings.alpha_pressed_pair > 0):
             # A pole pair above the vocabulary's floor is a resonance whose zeros ran to the
             # structure box's top, or an airframe pair an effect pressed up, lightly damped or
             # broad (on the R-50 `none` cases of the stored blind seeds the pair lay at
@@ -2336,7 +2339,6 @@ def diagnose(
             # A broad pair (pressed up) only where the two earn their three parameters on J
             # and the refit lies under the floor (DiagnoseSettings: alpha_pressed_pair).
             low = f_b.params["structural_mode"]
-            light = _resonance_taken_for_structure(f_sm.params["structural_mode"])
             earned = j_f_test_p(f_sm.cost_J, f_r.cost_J, 3, m_eff) < settings.alpha_pressed_pair
             if (f_r.cost_J < f_sm.cost_J and b_sc.beats_noise and _airframe_pair(low, settings.structure_zeta_z)
                     and (light or (earned and _under_the_floor(low)))):
