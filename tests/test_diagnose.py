@@ -1602,7 +1602,7 @@ def test_no_effect_case_answers_none():
     model refitted by output error on TRAIN, no effect added), checked here against
     scipy.signal.lsim of its reported parameters: its held-out R^2 (eq. 46, by hand) and its
     identification error, which is at most the nominal's, both taken about each record's
-    mean.  The summary quotes it where it predicts VAL better than the frequency-domain fit."""
+    mean (the held-out R^2's null model too).  The summary quotes it where it predicts VAL better than the frequency-domain fit."""
     from jaxgwo._diagnose import _time_pairs
 
     train, val = _case(None, seed=1)
@@ -1611,9 +1611,10 @@ def test_no_effect_case_answers_none():
     assert "No candidate effect beats noise" in d.summary()
     doc = _report_json(d)["time_domain_refit"]
     assert set(doc) == {"params", "effects", "train_mse", "val_r2", "val_tic", "gap_closed"} and doc["effects"] == {}
-    y = np.concatenate([yv for *_r, yv in _time_pairs(val, "lateral", SETTINGS.identify)])
-    p = np.concatenate([_paper_lsim(doc["params"], tv, uv) for tv, uv, _o, _y in _time_pairs(val, "lateral", SETTINGS.identify)])
-    r2 = 1.0 - np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2)
+    pairs = _time_pairs(val, "lateral", SETTINGS.identify)
+    e = np.concatenate([yv - _paper_lsim(doc["params"], tv, uv) for tv, uv, _o, yv in pairs])
+    e -= np.concatenate([np.full(yv.size, np.mean(yv - _paper_lsim(doc["params"], tv, uv))) for tv, uv, _o, yv in pairs])
+    r2 = 1.0 - np.sum(e**2) / sum(np.sum((yv - yv.mean()) ** 2) for *_r, yv in pairs)
     assert doc["val_r2"] == pytest.approx(r2, abs=1e-6)
     assert doc["gap_closed"] == pytest.approx((r2 - d.nominal_r2) / (1.0 - d.nominal_r2), abs=1e-5)
 
@@ -2587,8 +2588,8 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
     y = np.sin(2.0 * np.pi * 0.7 * t) + 0.4 * np.sin(2.0 * np.pi * 2.3 * t + 1.0)
     err = rng.standard_normal(t.size)
 
-    def r2(p):
-        return 1.0 - np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2)
+    def r2(p):  # about the record's mean, as every held-out score
+        return 1.0 - np.sum((y - p - np.mean(y - p)) ** 2) / np.sum((y - y.mean()) ** 2)
 
     nominal, refit = y + 0.10 * err, y + 0.20 * err
 
@@ -2623,6 +2624,42 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
             assert math.isnan(sc.z_score) and sc.delta_bic_val == math.inf
 
 
+def test_held_out_scores_do_not_depend_on_the_records_trim():
+    """Each held-out record is scored about its mean (``about_record_means``): a trim error,
+    a constant on the measured rate of each record, changes neither R^2, TIC, the gap
+    closed nor the block z-score.  R^2 against a plain NumPy one over the two records with
+    a constant fitted to each; a diverged simulation still predicts nothing."""
+    from jaxgwo._diagnose_which import about_record_means, held_out_fit, score_candidate
+
+    rng = np.random.default_rng(11)
+    dt = 0.02
+    t = np.arange(0.0, 20.0, dt)
+    ys = [np.sin(2.0 * np.pi * f * t) + 0.2 * rng.standard_normal(t.size) for f in (0.4, 0.9)]
+    nominal = [np.sin(2.0 * np.pi * f * t + 0.3) for f in (0.4, 0.9)]
+    cand = [np.sin(2.0 * np.pi * f * t + 0.1) for f in (0.4, 0.9)]
+
+    def numpy_r2(ys, ps):  # a constant fitted to each record, the null model included
+        r = np.concatenate([y - p - np.mean(y - p) for y, p in zip(ys, ps)])
+        return 1.0 - np.sum(r**2) / sum(np.sum((y - y.mean()) ** 2) for y in ys)
+
+    def scored(ys):
+        _y, _p, r2_nom, _tic, _g = held_out_fit(ys, nominal, 0.0)
+        return score_candidate(("time_delay",), {}, {}, cand, ys, nominal, r2_nom, 1.0, 1.0, 50.0, 1, dt, dt, 0.0)
+
+    trimmed = [y + c for y, c in zip(ys, (0.35, -0.2))]  # each record's rate off by its trim error
+    a, b = scored(ys), scored(trimmed)
+    assert a.val_r2 == pytest.approx(numpy_r2(ys, cand), rel=1e-9)
+    assert a.val_r2 > numpy_r2(ys, nominal) + 0.05  # the candidate is the better model here
+    for f in ("val_r2", "val_tic", "gap_closed", "z_score"):
+        assert getattr(b, f) == pytest.approx(getattr(a, f), rel=1e-9, abs=1e-12)
+    # scored from the records as they stand, the trim error would have cost R^2
+    raw = 1.0 - np.sum(np.concatenate([y - p for y, p in zip(trimmed, cand)]) ** 2) / np.sum(
+        (np.concatenate(trimmed) - np.concatenate(trimmed).mean()) ** 2)
+    assert raw < b.val_r2 - 0.02
+    blown, taken = about_record_means([np.full(t.size, np.nan), cand[1]])
+    assert np.all(blown == 0.0) and np.allclose(taken, cand[1] - np.mean(cand[1]))
+
+
 def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
     """``held_out_alpha``: strong held-out evidence (z at least the one-sided normal
     quantile of ``alpha``, 3.09 at 1e-3) with weak identification support (``extra_train_p``
@@ -2639,8 +2676,8 @@ def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
     y = np.sin(2.0 * np.pi * 0.5 * t) + 0.3 * np.sin(2.0 * np.pi * 1.7 * t)
     err = rng.standard_normal(t.size)
 
-    def r2(p):
-        return 1.0 - np.sum((y - p) ** 2) / np.sum((y - y.mean()) ** 2)
+    def r2(p):  # about the record's mean, as every held-out score
+        return 1.0 - np.sum((y - p - np.mean(y - p)) ** 2) / np.sum((y - y.mean()) ** 2)
 
     nominal = y + 0.10 * err
 
@@ -2649,8 +2686,10 @@ def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
                                dt, dt, 0.0, extra_train_p=p_train, j_required=False, z_min=1.0, min_gap=0.0,
                                held_out_alpha=held_out_alpha)  # fmt: skip
 
-    def block_z(cand):  # 0.5 s blocks: the correlation time here is one sample
-        d = (y - nominal) ** 2 - (y - cand) ** 2
+    def block_z(cand):  # 0.5 s blocks: the correlation time here is one sample; each
+        # prediction taken about the record's mean residual, as every held-out score is
+        p0, p1 = (p + np.mean(y - p) for p in (nominal, cand))
+        d = (y - p0) ** 2 - (y - p1) ** 2
         b = int(round(0.5 / dt))
         m = d[: d.size // b * b].reshape(-1, b).mean(axis=1)
         return m.mean() / (m.std(ddof=1) / np.sqrt(m.size))
@@ -2904,7 +2943,7 @@ def test_the_held_out_floor_of_each_route():
     err = rng.standard_normal(t.size)
     nominal, null = y + 0.050 * err, y + 0.054 * err
     cand = y + 0.0501 * err
-    r2_nom = 1.0 - np.sum((y - nominal) ** 2) / np.sum((y - y.mean()) ** 2)
+    r2_nom = 1.0 - np.sum((y - nominal - np.mean(y - nominal)) ** 2) / np.sum((y - y.mean()) ** 2)
 
     def passes(z_min, min_gap):
         return score_candidate(("structural_mode",), {}, {}, [cand], [y], [nominal], r2_nom, 1.0, 1.0, 500.0, 3, dt,

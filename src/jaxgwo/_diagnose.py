@@ -59,6 +59,7 @@ from ._diagnose_which import (
     ModelSpec,
     _active_mask,
     _flipped_objective,
+    about_record_means,
     airframe_delay_refit,
     bracketed_delay,
     delay_aware_start,
@@ -2533,14 +2534,18 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
     ax[1, 1].set_xlabel("frequency (Hz)")
     ax[1, 1].set_ylabel("residual PSD")
     t = d.val_time[0]
+
+    def shown(pred):  # as scored, about the record's mean residual
+        return about_record_means([pred])[0] + float(np.mean(d.val_measured[0]))
+
     ax[2, 0].plot(t, d.val_measured[0], "k", lw=0.8, label="measured (VAL)")
-    ax[2, 0].plot(t, d.val_nominal[0], "tab:blue", lw=0.8, label=f"nominal R^2 {d.nominal_r2:.3f}")
+    ax[2, 0].plot(t, shown(d.val_nominal[0]), "tab:blue", lw=0.8, label=f"nominal R^2 {d.nominal_r2:.3f}")
     proposed, label = _proposed_model(d)
     if d.refit is not None and d.refit.predicted:
-        ax[2, 0].plot(t, d.refit.predicted[0], "tab:green", lw=0.6, ls="--",
+        ax[2, 0].plot(t, shown(d.refit.predicted[0]), "tab:green", lw=0.6, ls="--",
                       label=f"refitted by output error, no effect, R^2 {d.refit.val_r2:.3f}")  # fmt: skip
     if proposed is not None:
-        ax[2, 0].plot(t, proposed.predicted[0], "tab:red", lw=0.8, label=f"{label} R^2 {proposed.val_r2:.3f}")
+        ax[2, 0].plot(t, shown(proposed.predicted[0]), "tab:red", lw=0.8, label=f"{label} R^2 {proposed.val_r2:.3f}")
     ax[2, 0].set_xlabel("time (s)")
     ax[2, 0].legend(fontsize=8)
     names = ["+".join(c.effects) for c in d.ranking]
