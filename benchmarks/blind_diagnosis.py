@@ -363,11 +363,11 @@ def diagnose_cases(dirs: list[str], settings, out_json: str, resume: bool = Fals
 
 
 def _r2(y, p):
-    """R^2 of ``p`` (from rest) against ``y`` about the record's mean residual, as the
-    diagnosis scores a held-out record (:func:`jaxgwo._diagnose_which.about_record_means`)."""
-    y = np.asarray(y, float)
-    r = y - np.asarray(p, float)
-    return 1.0 - float(np.sum((r - r.mean()) ** 2) / np.sum((y - y.mean()) ** 2))
+    """R^2 of ``p`` (from rest) against ``y``, scored as the diagnosis scores a held-out
+    record (:func:`jaxgwo._diagnose_which.held_out_fit`: about the record's mean)."""
+    from jaxgwo._diagnose_which import held_out_fit
+
+    return held_out_fit([np.asarray(y, float)], [np.asarray(p, float)], 0.0)[2]
 
 
 _MAIN_PARAM = {"time_delay": "delay_s", "sensor_lag": "cutoff_hz", "rotor_flapping": "tau_f",

@@ -1612,9 +1612,8 @@ def test_no_effect_case_answers_none():
     doc = _report_json(d)["time_domain_refit"]
     assert set(doc) == {"params", "effects", "train_mse", "val_r2", "val_tic", "gap_closed"} and doc["effects"] == {}
     pairs = _time_pairs(val, "lateral", SETTINGS.identify)
-    e = np.concatenate([yv - _paper_lsim(doc["params"], tv, uv) for tv, uv, _o, yv in pairs])
-    e -= np.concatenate([np.full(yv.size, np.mean(yv - _paper_lsim(doc["params"], tv, uv))) for tv, uv, _o, yv in pairs])
-    r2 = 1.0 - np.sum(e**2) / sum(np.sum((yv - yv.mean()) ** 2) for *_r, yv in pairs)
+    e = [yv - _paper_lsim(doc["params"], tv, uv) for tv, uv, _o, yv in pairs]
+    r2 = 1.0 - sum(np.sum((v - v.mean()) ** 2) for v in e) / sum(np.sum((yv - yv.mean()) ** 2) for *_r, yv in pairs)
     assert doc["val_r2"] == pytest.approx(r2, abs=1e-6)
     assert doc["gap_closed"] == pytest.approx((r2 - d.nominal_r2) / (1.0 - d.nominal_r2), abs=1e-5)
 
@@ -2625,11 +2624,11 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
 
 
 def test_held_out_scores_do_not_depend_on_the_records_trim():
-    """Each held-out record is scored about its mean (``about_record_means``): a trim error,
+    """Each held-out record is scored about its mean (``held_out_centred``): a trim error,
     a constant on the measured rate of each record, changes neither R^2, TIC, the gap
     closed nor the block z-score.  R^2 against a plain NumPy one over the two records with
     a constant fitted to each; a diverged simulation still predicts nothing."""
-    from jaxgwo._diagnose_which import about_record_means, held_out_fit, score_candidate
+    from jaxgwo._diagnose_which import held_out_centred, held_out_fit, score_candidate
 
     rng = np.random.default_rng(11)
     dt = 0.02
@@ -2656,7 +2655,7 @@ def test_held_out_scores_do_not_depend_on_the_records_trim():
     raw = 1.0 - np.sum(np.concatenate([y - p for y, p in zip(trimmed, cand)]) ** 2) / np.sum(
         (np.concatenate(trimmed) - np.concatenate(trimmed).mean()) ** 2)
     assert raw < b.val_r2 - 0.02
-    blown, taken = about_record_means([np.full(t.size, np.nan), cand[1]])
+    blown, taken = held_out_centred([np.full(t.size, np.nan), cand[1]])
     assert np.all(blown == 0.0) and np.allclose(taken, cand[1] - np.mean(cand[1]))
 
 

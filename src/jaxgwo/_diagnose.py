@@ -59,7 +59,6 @@ from ._diagnose_which import (
     ModelSpec,
     _active_mask,
     _flipped_objective,
-    about_record_means,
     airframe_delay_refit,
     bracketed_delay,
     delay_aware_start,
@@ -67,6 +66,7 @@ from ._diagnose_which import (
     fit_cross_coupling,
     fit_linear_candidates,
     fit_nonlinear_candidates,
+    held_out_centred,
     held_out_fit,
     j_evidence,
     j_f_test_p,
@@ -2536,7 +2536,7 @@ def plot_diagnosis(d: Diagnosis, path: str) -> None:
     t = d.val_time[0]
 
     def shown(pred):  # as scored, about the record's mean residual
-        return about_record_means([pred])[0] + float(np.mean(d.val_measured[0]))
+        return held_out_centred([pred])[0] + float(np.mean(d.val_measured[0]))
 
     ax[2, 0].plot(t, d.val_measured[0], "k", lw=0.8, label="measured (VAL)")
     ax[2, 0].plot(t, shown(d.val_nominal[0]), "tab:blue", lw=0.8, label=f"nominal R^2 {d.nominal_r2:.3f}")

@@ -84,7 +84,7 @@ __all__ = [
     "fit_linear_candidates",
     "fit_cross_coupling",
     "fit_nonlinear_candidates",
-    "about_record_means",
+    "held_out_centred",
     "held_out_fit",
     "score_candidate",
     "CandidateScore",
@@ -1997,7 +1997,7 @@ def _gap_closed(r2: float, base_r2: float) -> float:
     return (r2 - base_r2) / (1.0 - base_r2) if base_r2 < 1.0 else 0.0
 
 
-def about_record_means(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
+def held_out_centred(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
     """Each held-out record's signal less its mean, its non-finite samples first set to
     zero (an unstable or overflowing simulation predicts nothing).
 
@@ -2008,7 +2008,8 @@ def about_record_means(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
     input it becomes one within the rotor's time constant.  It is a bias parameter per
     record, as output-error identification commonly estimates beside the model's; it
     treats every model scored on the record alike, and the identification records carry
-    one already (:func:`fit_cross_coupling`).  Without it the held-out scores charge a
+    one already (:func:`fit_cross_coupling`; :func:`_about_record_means` on their padded
+    arrays).  Without it the held-out scores charge a
     model for the trim window: the simulator's records start at rest while the hold loop
     moves the off-axis stick from the first sample, so that stick's first-0.5 s mean was
     half its rms on seed-453 case_060, and its paper cross-coupling (gain -0.234) lowered
@@ -2026,11 +2027,11 @@ def about_record_means(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
 
 def held_out_fit(measured: Sequence[np.ndarray], predicted: Sequence[np.ndarray], base_r2: float):
     """``(y, p, R^2, TIC, gap closed)`` of a held-out prediction: the records concatenated,
-    measured and predicted each taken about each record's mean (:func:`about_record_means`), R^2
+    measured and predicted each taken about each record's mean (:func:`held_out_centred`), R^2
     (eq. 46), TIC, and the fraction of the R^2 gap a base of held-out R^2 ``base_r2``
     leaves that it closes."""
-    y = np.concatenate(about_record_means(measured))
-    p = np.concatenate(about_record_means(predicted))
+    y = np.concatenate(held_out_centred(measured))
+    p = np.concatenate(held_out_centred(predicted))
     r2 = float(r_squared(jnp.asarray(y), jnp.asarray(p)))
     tic = float(theil_inequality(jnp.asarray(y), jnp.asarray(p)))
     return y, p, r2, tic, _gap_closed(r2, base_r2)
@@ -2082,7 +2083,7 @@ def score_candidate(
     if not math.isfinite(correlation_time_s):
         correlation_time_s = dt
     y, p, r2, tic, gap = held_out_fit(measured, predicted, nominal_r2)
-    pb = np.concatenate(about_record_means(nominal_predicted if baseline_predicted is None else baseline_predicted))
+    pb = np.concatenate(held_out_centred(nominal_predicted if baseline_predicted is None else baseline_predicted))
     n_eff = max(2.0, y.size * dt / max(correlation_time_s, dt))
     # a simulation that diverged to huge but finite values (seed-211 case_057) squares to
     # inf: its rss is infinite and its z-score NaN, which beat nothing; numpy's overflow
