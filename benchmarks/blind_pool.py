@@ -94,7 +94,7 @@ def load_draws(workdirs, blind=None) -> list[dict]:
                              "finish the draw (--reuse --resume) before pooling it.")
         rows = blind.score(w, results)["rows"]
         draws.append({"workdir": w, "seed": draw.get("seed"), "attitude": bool(draw.get("attitude")), "rows": rows,
-                      "bounds": bound_counts(rows)})  # fmt: skip
+                      "bounds": bound_counts(rows), "estimates": blind.estimate_counts(rows)})  # fmt: skip
     seeds = [d["seed"] for d in draws]
     dup = sorted({s for s in seeds if seeds.count(s) > 1 and s is not None})
     if dup:
@@ -130,6 +130,27 @@ def _report_bounds(lines: list[str], path: str) -> dict | None:
             out[(cells[0], cells[1])] = [int(cells[2]), int(cells[3]), int(cells[4])]
         except (IndexError, ValueError):
             raise SystemExit(f"{path}: cannot read the quoted-bounds row {ln!r}; was the table edited by hand?") from None
+    return out
+
+
+def _report_estimates(lines: list[str], path: str, blind) -> dict:
+    """:func:`blind_diagnosis.estimate_counts` read back from a report's target rows (the
+    rows :func:`blind_diagnosis.estimate_rows` writes; the largest as printed, to three
+    digits).  A row the report lacks is absent: a draw without that effect's cases, or a
+    report from before the row."""
+    heads = {effect: f"| {effect} estimated within {bound:g} {unit} (its candidate"
+             for effect, bound, unit in blind.ESTIMATE_TARGETS}
+    heads["val_r2"] = f"| the proposed model's VAL R^2 within {blind.R2_TARGET:g} of the true model's"
+    out = {}
+    for name, head in heads.items():
+        ln = next((ln for ln in lines if ln.startswith(head)), None)
+        if ln is None:
+            continue
+        m = re.search(r"\((\d+)/(\d+)\), largest (?:error|difference) (\S+)", ln)
+        try:
+            out[name] = (int(m.group(1)), int(m.group(2)), float(m.group(3)))
+        except (AttributeError, ValueError):
+            raise SystemExit(f"{path}: cannot read the target row {ln!r}; was the table edited by hand?") from None
     return out
 
 
@@ -204,7 +225,7 @@ def load_report(path: str, blind=None) -> dict:
     # the draw's own command line (a hand note above it may name the flag in passing)
     attitude = any(ln.startswith("`python benchmarks/blind_diagnosis.py") and "--attitude" in ln for ln in lines[:i])
     return {"workdir": path, "seed": int(seed.group(1)), "attitude": attitude, "rows": rows,
-            "bounds": _report_bounds(lines, path)}
+            "bounds": _report_bounds(lines, path), "estimates": _report_estimates(lines, path, blind)}
 
 
 def _cell(hits: int, n: int) -> str:
@@ -254,6 +275,7 @@ def pool_report(draws: list[dict], argv: list[str]) -> str:
     for plant in ("paper", "r50"):
         pr = [r for r in eff if r["plant"] == plant]
         L.append(f"| top-1 on {plant} plants | {_cell(sum(r['top1'] for r in pr), len(pr))} | |")
+    L += _estimates_section(draws)
     classes = [c for c in _blind().CLASSES if c != "none" and any(r["truth"] == c for r in rows)]
     L += ["", "## Top-1 by effect and plant (identifiable ones in brackets)", "",
           "| effect | paper | R-50 | all |", "|---|---|---|---|"]
@@ -276,6 +298,27 @@ def pool_report(draws: list[dict], argv: list[str]) -> str:
     for (plant, truth, verdict), k in sorted(by.items(), key=lambda kv: (-kv[1], kv[0])):
         L.append(f"| {plant} | {truth} | {verdict} | {k} | {by_idf[(plant, truth, verdict)]} |")
     return "\n".join(L + _bounds_section(draws, classes)) + "\n"
+
+
+def _estimates_section(draws: list[dict]) -> list[str]:
+    """The pooled table's rows of the estimate targets (a delay within 3 ms, a gyro filter's
+    cutoff within 15 %, the VAL R^2 within 0.02 of the true model's): the draws' counts
+    summed and their largest errors' maximum, with a line naming the draws a row leaves
+    out (a draw without that effect's cases, or one given by neither)."""
+    blind = _blind()
+    tot: dict = {}
+    for d in draws:
+        for name, (k, n, big) in (d.get("estimates") or {}).items():
+            t = tot.setdefault(name, [0, 0, -math.inf, 0])
+            t[0], t[1], t[3] = t[0] + k, t[1] + n, t[3] + 1
+            t[2] = big if math.isnan(big) or math.isnan(t[2]) else max(t[2], big)  # a failed case stays nan
+    if not tot:
+        return []
+    L = blind.estimate_rows({name: tuple(t[:3]) for name, t in tot.items()}, cell=_cell)
+    short = [f"{name} over {t[3]} of the {len(draws)} draws" for name, t in tot.items() if t[3] < len(draws)]
+    if short:
+        L += ["", "Target rows pooled over fewer draws: " + "; ".join(short) + "."]
+    return L
 
 
 def _bounds_section(draws: list[dict], classes: list[str]) -> list[str]:

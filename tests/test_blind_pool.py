@@ -82,6 +82,10 @@ class _Scorer:
     def score(workdir, results):
         return {"rows": [_row("none", doc["verdict"]) for doc in results.values()]}
 
+    @staticmethod
+    def estimate_counts(rows):
+        return {}
+
 
 def test_load_draws_refuses_a_part_diagnosed_draw_and_a_repeated_seed(pool, tmp_path):
     full = _workdir(tmp_path, "w1", 7, ["case_000", "case_001"], ["case_000", "case_001"])
@@ -190,3 +194,48 @@ def test_quoted_bounds_read_back_from_a_report_and_pool_over_the_draws_that_give
     lo, hi = pool.wilson_interval(4, 5)
     assert f"| time_delay | paper | 5 | 80 % (4/5; {100 * lo:.0f}-{100 * hi:.0f}) | 100 % (5/5; 57-100) |" in lines
     assert any(ln.startswith("| all | both | 6 | 67 % (4/6;") for ln in lines)
+
+
+def test_estimate_targets_read_back_from_a_report_and_pool_over_the_draws(pool, tmp_path):
+    """The report's rows for a delay within 3 ms, a cutoff within 15 % and the VAL R^2
+    within 0.02 read back as estimate_counts of the rows they were written from (counted
+    here by hand); the pool sums the counts, takes the largest error over the draws, and
+    names a draw that lacks a row."""
+    import types
+
+    import numpy as np
+
+    blind = pool._blind()
+
+    def est(row, err, r2_after):
+        return row | {"param_error": ("abs error (ms)", err), "r2_after": r2_after}
+
+    rows = [est(_full_row("case_000", "time_delay", "time_delay"), 1.25, 0.95),  # |0.95 - 0.96| within 0.02
+            est(_full_row("case_001", "time_delay", "none"), 3.5, 0.93),  # 3.5 ms and 0.03: both out
+            est(_full_row("case_002", "sensor_lag", "sensor_lag"), 14.0, 0.955),
+            _full_row("case_003", "none", "none")]
+    want = {"time_delay": (1, 2, 3.5), "sensor_lag": (1, 1, 14.0), "val_r2": (3, 4, 0.03)}
+    got = blind.estimate_counts(rows)
+    assert got.keys() == want.keys()
+    for k, (a, n, big) in want.items():
+        assert got[k][:2] == (a, n) and got[k][2] == pytest.approx(big, abs=1e-12), k
+    conf = np.zeros((len(blind.CLASSES), len(blind.CLASSES)), int)
+    args = types.SimpleNamespace(classes=",".join(r["truth"] for r in rows), reuse=True, seed=11, cases_per_effect=1,
+                                 r50_fraction=0.25, attitude=True, resume=False, out=str(tmp_path), report_name="es")  # fmt: skip
+    blind.write_report({"rows": rows, "confusion": conf}, args, str(tmp_path), 60.0)
+    draw = pool.load_report(str(tmp_path / "es.md"), blind)
+    assert draw["estimates"] == {"time_delay": (1, 2, 3.5), "sensor_lag": (1, 1, 14.0), "val_r2": (3, 4, 0.03)}
+    other = {"workdir": "B", "seed": 2, "attitude": True, "rows": [_row("time_delay", "time_delay")],
+             "estimates": {"time_delay": (4, 4, 2.0), "val_r2": (5, 5, 0.011)}}
+    lines = pool.pool_report([draw, other], ["es.md", "B"]).splitlines()
+    assert any(ln.startswith("| time_delay estimated within 3 ms") and "(5/6;" in ln and "largest error 3.5 ms" in ln
+               for ln in lines)  # fmt: skip
+    assert any(ln.startswith("| sensor_lag estimated within 15 %") and "(1/1;" in ln for ln in lines)
+    assert any(ln.startswith("| the proposed model's VAL R^2 within 0.02") and "(8/9;" in ln
+               and "largest difference 0.030" in ln for ln in lines)  # fmt: skip
+    assert "Target rows pooled over fewer draws: sensor_lag over 1 of the 2 draws." in lines
+    bad = tmp_path / "bad_es.md"
+    text = (tmp_path / "es.md").read_text()
+    bad.write_text(text.replace("largest error 3.5 ms", "largest error ? ms"))
+    with pytest.raises(SystemExit, match="cannot read the target row"):
+        pool.load_report(str(bad), blind)
