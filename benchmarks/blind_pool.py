@@ -1,6 +1,6 @@
 """Pool several draws of the blind study (issue 5) into one table.
 
-    python benchmarks/blind_pool.py W1 W2 ... [--out benchmarks/results/blind_pool.md]
+    python benchmarks/blind_pool.py W1 W2 ... [--out benchmarks/results/blind_pool.md] [--header NOTE.md]
 
 Each ``W`` is a workdir of ``benchmarks/blind_diagnosis.py`` that holds its key and its
 diagnoses (``key.json``, ``diagnoses.json``, ``draw.json``, the records), or the markdown
@@ -240,12 +240,14 @@ def _count(rows, key: str = "top1") -> str:
     return f"{sum(r[key] for r in rows)}/{len(rows)}"
 
 
-def pool_report(draws: list[dict], argv: list[str]) -> str:
-    """The markdown of the pooled study."""
+def pool_report(draws: list[dict], argv: list[str], header: str | None = None) -> str:
+    """The markdown of the pooled study; ``header`` (markdown, a hand note on the draws)
+    stands verbatim between the title and the command line."""
     rows = [r for d in draws for r in d["rows"]]
     eff = [r for r in rows if r["truth"] != "none"]
     nones = [r for r in rows if r["truth"] == "none"]
-    L = ["# Blind diagnosis study, draws pooled", "",
+    note = [header.strip("\n"), ""] if header and header.strip() else []
+    L = ["# Blind diagnosis study, draws pooled", "", *note,
          f"`python benchmarks/blind_pool.py {' '.join(argv)}`", "",
          f"{len(draws)} draws, {len(rows)} cases ({len(eff)} with an effect, {len(nones)} without). Each draw is "
          "scored from the diagnoses stored in its workdir, so the draws may come from different commits (each "
@@ -358,8 +360,17 @@ def main(argv=None) -> int:
     ap.add_argument("workdirs", nargs="+",
                     help="blind_diagnosis.py workdirs, each simulated and diagnosed, or the .md reports it wrote")
     ap.add_argument("--out", default=None, help="write the markdown here (default: print it)")
+    ap.add_argument("--header", default=None,
+                    help="a markdown file placed verbatim under the title (a hand note on the draws pooled)")
     args = ap.parse_args(argv)
-    text = pool_report(load_draws(args.workdirs), argv)
+    header = None
+    if args.header:
+        try:
+            with open(args.header) as f:
+                header = f.read()
+        except OSError as err:
+            raise SystemExit(f"--header {args.header}: {err.strerror}; pass a markdown file, or leave --header out.") from None
+    text = pool_report(load_draws(args.workdirs), argv, header)
     if args.out:
         from jaxgwo._atomic import atomic_write_text
 

@@ -239,3 +239,20 @@ def test_estimate_targets_read_back_from_a_report_and_pool_over_the_draws(pool, 
     bad.write_text(text.replace("largest error 3.5 ms", "largest error ? ms"))
     with pytest.raises(SystemExit, match="cannot read the target row"):
         pool.load_report(str(bad), blind)
+
+
+def test_a_hand_note_stands_under_the_title_and_a_missing_one_writes_nothing(pool, tmp_path):
+    """--header puts a markdown note verbatim between the title and the command line, so
+    the command a pooled file prints makes that file again; a note that is not there is
+    refused before anything is written."""
+    draws = [{"workdir": "A", "seed": 1, "attitude": True, "rows": [_row("time_delay", "time_delay")]}]
+    note = "> Added by hand: seed 1 on abc1234.\n> A second line.\n"
+    lines = pool.pool_report(draws, ["A"], header=note).splitlines()
+    assert lines[:5] == ["# Blind diagnosis study, draws pooled", "", "> Added by hand: seed 1 on abc1234.",
+                         "> A second line.", ""]  # fmt: skip
+    assert lines[5] == "`python benchmarks/blind_pool.py A`"
+    assert pool.pool_report(draws, ["A"]).splitlines()[2] == "`python benchmarks/blind_pool.py A`"
+    out = tmp_path / "pool.md"
+    with pytest.raises(SystemExit, match="--header .*missing.md"):
+        pool.main([str(tmp_path / "w"), "--header", str(tmp_path / "missing.md"), "--out", str(out)])
+    assert not out.exists()
