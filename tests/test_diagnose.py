@@ -1597,6 +1597,14 @@ def _paper_lsim(params: dict, t, u):
     return scipy.signal.lsim(([k * ws * ws], den), u, t, interp=False)[1]
 
 
+def _r2_about_record_means(ys, ps):
+    """Held-out R^2 (eq. 46) by plain NumPy over records ``ys`` and predictions ``ps``, a
+    constant fitted to each record's residual and the null model taken about each record's
+    mean, as the diagnosis scores every held-out prediction (``held_out_centred``)."""
+    r = np.concatenate([y - p - np.mean(y - p) for y, p in zip(ys, ps, strict=True)])
+    return 1.0 - np.sum(r**2) / sum(np.sum((y - y.mean()) ** 2) for y in ys)
+
+
 def test_no_effect_case_answers_none():
     """No effect: the verdict is none.  The report also gives the null refit (the paper
     model refitted by output error on TRAIN, no effect added), checked here against
@@ -1612,8 +1620,8 @@ def test_no_effect_case_answers_none():
     doc = _report_json(d)["time_domain_refit"]
     assert set(doc) == {"params", "effects", "train_mse", "val_r2", "val_tic", "gap_closed"} and doc["effects"] == {}
     pairs = _time_pairs(val, "lateral", SETTINGS.identify)
-    e = [yv - _paper_lsim(doc["params"], tv, uv) for tv, uv, _o, yv in pairs]
-    r2 = 1.0 - sum(np.sum((v - v.mean()) ** 2) for v in e) / sum(np.sum((yv - yv.mean()) ** 2) for *_r, yv in pairs)
+    r2 = _r2_about_record_means([yv for *_r, yv in pairs],
+                                [_paper_lsim(doc["params"], tv, uv) for tv, uv, _o, _y in pairs])
     assert doc["val_r2"] == pytest.approx(r2, abs=1e-6)
     assert doc["gap_closed"] == pytest.approx((r2 - d.nominal_r2) / (1.0 - d.nominal_r2), abs=1e-5)
 
@@ -2587,8 +2595,8 @@ def test_a_nonlinear_candidate_may_close_the_gap_its_own_null_refit_leaves():
     y = np.sin(2.0 * np.pi * 0.7 * t) + 0.4 * np.sin(2.0 * np.pi * 2.3 * t + 1.0)
     err = rng.standard_normal(t.size)
 
-    def r2(p):  # about the record's mean, as every held-out score
-        return 1.0 - np.sum((y - p - np.mean(y - p)) ** 2) / np.sum((y - y.mean()) ** 2)
+    def r2(p):
+        return _r2_about_record_means([y], [p])
 
     nominal, refit = y + 0.10 * err, y + 0.20 * err
 
@@ -2637,18 +2645,14 @@ def test_held_out_scores_do_not_depend_on_the_records_trim():
     nominal = [np.sin(2.0 * np.pi * f * t + 0.3) for f in (0.4, 0.9)]
     cand = [np.sin(2.0 * np.pi * f * t + 0.1) for f in (0.4, 0.9)]
 
-    def numpy_r2(ys, ps):  # a constant fitted to each record, the null model included
-        r = np.concatenate([y - p - np.mean(y - p) for y, p in zip(ys, ps)])
-        return 1.0 - np.sum(r**2) / sum(np.sum((y - y.mean()) ** 2) for y in ys)
-
     def scored(ys):
         _y, _p, r2_nom, _tic, _g = held_out_fit(ys, nominal, 0.0)
         return score_candidate(("time_delay",), {}, {}, cand, ys, nominal, r2_nom, 1.0, 1.0, 50.0, 1, dt, dt, 0.0)
 
     trimmed = [y + c for y, c in zip(ys, (0.35, -0.2))]  # each record's rate off by its trim error
     a, b = scored(ys), scored(trimmed)
-    assert a.val_r2 == pytest.approx(numpy_r2(ys, cand), rel=1e-9)
-    assert a.val_r2 > numpy_r2(ys, nominal) + 0.05  # the candidate is the better model here
+    assert a.val_r2 == pytest.approx(_r2_about_record_means(ys, cand), rel=1e-9)
+    assert a.val_r2 > _r2_about_record_means(ys, nominal) + 0.05  # the candidate is the better model here
     for f in ("val_r2", "val_tic", "gap_closed", "z_score"):
         assert getattr(b, f) == pytest.approx(getattr(a, f), rel=1e-9, abs=1e-12)
     # scored from the records as they stand, the trim error would have cost R^2
@@ -2675,8 +2679,8 @@ def test_a_cross_coupling_may_pass_on_the_held_out_records_first():
     y = np.sin(2.0 * np.pi * 0.5 * t) + 0.3 * np.sin(2.0 * np.pi * 1.7 * t)
     err = rng.standard_normal(t.size)
 
-    def r2(p):  # about the record's mean, as every held-out score
-        return 1.0 - np.sum((y - p - np.mean(y - p)) ** 2) / np.sum((y - y.mean()) ** 2)
+    def r2(p):
+        return _r2_about_record_means([y], [p])
 
     nominal = y + 0.10 * err
 
@@ -2942,7 +2946,7 @@ def test_the_held_out_floor_of_each_route():
     err = rng.standard_normal(t.size)
     nominal, null = y + 0.050 * err, y + 0.054 * err
     cand = y + 0.0501 * err
-    r2_nom = 1.0 - np.sum((y - nominal - np.mean(y - nominal)) ** 2) / np.sum((y - y.mean()) ** 2)
+    r2_nom = _r2_about_record_means([y], [nominal])
 
     def passes(z_min, min_gap):
         return score_candidate(("structural_mode",), {}, {}, [cand], [y], [nominal], r2_nom, 1.0, 1.0, 500.0, 3, dt,
