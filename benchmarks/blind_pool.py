@@ -78,28 +78,39 @@ def load_draws(workdirs, blind=None) -> list[dict]:
         if os.path.isfile(w) and w.endswith(".md"):
             draws.append(load_report(w, blind))
             continue
-        missing = [f for f in ("key.json", "diagnoses.json", "draw.json") if not os.path.exists(os.path.join(w, f))]
-        if missing:
-            raise SystemExit(f"{w}: no {', '.join(missing)}; pass workdirs that blind_diagnosis.py simulated "
-                             "and diagnosed (--simulate-only, then --reuse).")
-        with open(os.path.join(w, "draw.json")) as f:
-            draw = json.load(f)
-        with open(os.path.join(w, "key.json")) as f:
-            key = json.load(f)
-        with open(os.path.join(w, "diagnoses.json")) as f:
-            results = json.load(f)
-        lacking = sorted(set(key) - set(results))
-        if lacking:
-            raise SystemExit(f"{w}: {len(lacking)} of {len(key)} cases have no diagnosis (first {lacking[0]}); "
-                             "finish the draw (--reuse --resume) before pooling it.")
+        draw, _key, results = read_workdir(w)
         rows = blind.score(w, results)["rows"]
         draws.append({"workdir": w, "seed": draw.get("seed"), "attitude": bool(draw.get("attitude")), "rows": rows,
                       "bounds": bound_counts(rows), "estimates": blind.estimate_counts(rows)})  # fmt: skip
-    seeds = [d["seed"] for d in draws]
+    refuse_repeated_seeds([d["seed"] for d in draws])
+    return draws
+
+
+def refuse_repeated_seeds(seeds) -> None:
+    """Exit naming any seed given more than once: a draw counts once in a pool."""
     dup = sorted({s for s in seeds if seeds.count(s) > 1 and s is not None})
     if dup:
         raise SystemExit(f"seed(s) {dup} appear in more than one workdir or report: a draw counts once in a pool.")
-    return draws
+
+
+def read_workdir(w: str) -> tuple[dict, dict, dict]:
+    """``(draw, key, diagnoses)``: the three JSON files of a whole draw's workdir.  A workdir
+    without them (simulated, never diagnosed) or with cases the diagnoses lack is refused:
+    a part-diagnosed draw would bias a pool toward its first cases."""
+    missing = [f for f in ("key.json", "diagnoses.json", "draw.json") if not os.path.exists(os.path.join(w, f))]
+    if missing:
+        raise SystemExit(f"{w}: no {', '.join(missing)}; pass workdirs that blind_diagnosis.py simulated "
+                         "and diagnosed (--simulate-only, then --reuse).")
+    docs = []
+    for name in ("draw.json", "key.json", "diagnoses.json"):
+        with open(os.path.join(w, name)) as f:
+            docs.append(json.load(f))
+    draw, key, results = docs
+    lacking = sorted(set(key) - set(results))
+    if lacking:
+        raise SystemExit(f"{w}: {len(lacking)} of {len(key)} cases have no diagnosis (first {lacking[0]}); "
+                         "finish the draw (--reuse --resume) before pooling it.")
+    return draw, key, results
 
 
 def bound_counts(rows) -> dict:
