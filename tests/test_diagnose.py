@@ -2532,7 +2532,40 @@ def test_a_gyro_filter_is_estimated_by_its_output_error_refit_and_decided_by_j()
     assert _output_error_estimate(delay, (cand("time_delay", 0.0, True, 0.9970, 0.81, "td"), None)) is delay  # vanished
     flap = cand("time_delay", 0.0239, True, 0.9936, 0.58, "j")
     flap = dataclasses.replace(flap, effects=("rotor_flapping",), params={"rotor_flapping": {"tau_f": 0.02}})
-    assert _output_error_estimate(flap, (better, None)) is flap  # the other effects inside the band: J's stands
+    assert _output_error_estimate(flap, (better, None)) is flap  # a lag inside the band: J's stands
+
+
+@pytest.mark.parametrize("refit, reported", [
+    ((12.16, 0.022, 0.283), True),  # fresh seed 463's case_041 (truth 12.17 Hz): J 12.57 Hz, 0.030
+    ((9.0, 0.06, 0.20), True),  # a resonance elsewhere: the time histories, which have no window, place it
+    ((12.5, 0.49, 0.50), False),  # a broad pair (pole damping above 0.2): no resonance of the vocabulary
+    ((12.5, 0.05, 0.051), False),  # zeros on the poles: the pair cancels (_vanished)
+    ((45.0, 0.05, 0.2), False),  # on the box's 45 Hz edge
+])  # fmt: skip
+def test_a_resonance_named_on_j_is_estimated_by_its_output_error_refit(refit, reported):
+    """``J`` reads a lightly damped resonance from a windowed response estimate, which
+    widens its peak (the stored paper-plant modes of draws 373-473: pole damping 1.30 times
+    the truth); a refit to the time histories that is itself a resonance of the
+    vocabulary's shape estimates it, and ``J`` still decides."""
+    from jaxgwo._diagnose import _output_error_estimate
+
+    keys = ("freq_hz", "zeta_p", "zeta_z")
+
+    def cand(mode, ok, r2, pred, p=1e-9, score=1.2):
+        return dataclasses.replace(_scored("structural_mode", score, ok), params={"structural_mode": dict(zip(keys, mode))},
+                                   sigma={"structural_mode": {k: 0.01 for k in keys}}, val_r2=r2, val_tic=1.0 - r2,
+                                   gap_closed=r2 - 0.9, train_p=p, z_score=2.0, predicted=(pred,))  # fmt: skip
+
+    j = cand((12.57, 0.030, 0.35), True, 0.9950, "j")
+    td = cand(refit, False, 0.9955, "td", p=0.3, score=-5.0)
+    out = _output_error_estimate(j, (td, None))
+    if not reported:
+        assert out is j
+        return
+    assert out.params == td.params and out.sigma == td.sigma and out.predicted == ("td",)
+    assert (out.val_r2, out.gap_closed) == (td.val_r2, td.gap_closed)
+    assert out.beats_noise and (out.score, out.train_p, out.z_score) == (1.2, 1e-9, 2.0)  # J decides
+    assert out.detail == {"j_freq_hz": 12.57, "j_zeta_p": 0.030, "j_zeta_z": 0.35, "estimate_output_error": 1.0}
 
 
 @pytest.mark.parametrize("scores, names", [
@@ -2803,6 +2836,9 @@ def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monke
     train, val = _case("structural_mode", seed=2, freq_hz=8.5, zeta_p=0.07, zeta_z=0.15)
     settings = dataclasses.replace(SETTINGS, candidates=("structural_mode", "time_delay"))
     own_floor = _raise_the_mode_j_fits_floor(monkeypatch, dg)
+    # the J fit's own numbers: its output-error estimate (below) is held off until the last run
+    estimate = dg._output_error_estimate
+    monkeypatch.setattr(dg, "_output_error_estimate", lambda sc, refit: sc)
     d = diagnose(train, val, "lateral", settings)
     top = d.ranking[0]
     assert d.verdict == "structural_mode" and d.structure is None
@@ -2818,8 +2854,16 @@ def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monke
     assert "passed_as_resonance_found_by_J" not in mode.detail
     # without the raised floor the fit passes on its own (positive) gap, unmarked
     monkeypatch.setattr(dg, "_held_out_floor", own_floor)
+    monkeypatch.setattr(dg, "_output_error_estimate", estimate)
     plain = diagnose(train, val, "lateral", settings)
     assert plain.verdict == "structural_mode" and "passed_as_resonance_found_by_J" not in plain.ranking[0].detail
+    # J decides; the resonance is estimated by its output-error refit (_output_error_estimate),
+    # the J fit's parameters kept beside
+    top = plain.ranking[0]
+    assert top.detail["estimate_output_error"] == 1.0 and top.detail["time_domain_path"] == 0.0
+    mode = top.params["structural_mode"]
+    assert mode == {p: top.detail[f"td_{p}"] for p in ("freq_hz", "zeta_p", "zeta_z")}
+    assert top.val_r2 == top.detail["td_val_r2"] and all(f"j_{p}" in top.detail for p in mode)
 
 
 def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_noise(monkeypatch):
