@@ -2864,6 +2864,10 @@ def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monke
     mode = top.params["structural_mode"]
     assert mode == {p: top.detail[f"td_{p}"] for p in ("freq_hz", "zeta_p", "zeta_z")}
     assert top.val_r2 == top.detail["td_val_r2"] and all(f"j_{p}" in top.detail for p in mode)
+    assert (f"where the frequency-domain fit that found it read freq_hz {top.detail['j_freq_hz']:.3g}, "
+            f"zeta_p {top.detail['j_zeta_p']:.3g}, zeta_z {top.detail['j_zeta_z']:.3g}: the response is measured "
+            "over windows") in plain.summary()
+    assert "Estimated by refitting" not in d.summary()  # the J fit's own estimate (held off above)
 
 
 def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_noise(monkeypatch):

@@ -663,6 +663,12 @@ class Diagnosis:
         else:
             top = self.ranking[0]
             lines.append(f"Most likely cause: {_params_text(top)}.")
+            if top.detail.get("estimate_output_error"):
+                j = ", ".join(f"{p} {top.detail[f'j_{p}']:.3g}" for e in top.effects for p in top.params[e]
+                              if f"j_{p}" in top.detail)  # fmt: skip
+                why = next((w for e, w in _WHY_OUTPUT_ERROR.items() if e in top.effects), "")
+                lines.append("Estimated by refitting the model with it to the identification time histories (output "
+                             f"error), where the frequency-domain fit that found it read {j}: {why}.")  # fmt: skip
             moved = _refitted_pair(top, self.structure)
             if moved is not None:
                 lines.append(f"Beside it the airframe's pole pair refits to {moved[0]:.3g} Hz (damping {moved[1]:.2g}); "
@@ -1473,6 +1479,12 @@ def _against_null_j(p_mse: float, p_j_null: float, j: float, j_null: float, alph
     return bool(sized and p_j_null < alpha), (min(p_mse, p_j_null) if sized else p_mse)
 
 
+_WHY_OUTPUT_ERROR = {
+    "structural_mode": "the response is measured over windows of a few seconds, which widen a lightly damped peak",
+    "sensor_lag": "a gyro filter acts mostly above the analysed band, where that fit sees only its phase lag",
+    "time_delay": "that fit can trade the delay against the servo, and the refit predicts the held-out records better",
+}
+"""The summary's reason why :func:`_output_error_estimate` reports an effect's refit."""
 _DELAY_REFIT_R2 = 0.001
 """How much better (held-out R^2) a ``time_delay``'s output-error refit must predict the
 held-out records than its ``J`` fit for the refit's delay to be reported
