@@ -105,13 +105,7 @@ def main(argv=None) -> int:
         draws.append((w, signed_errors(key, results)))
     blind_pool.refuse_repeated_seeds(seeds)
     text = bias_report(draws, argv)
-    if args.out:
-        from jaxgwo._atomic import atomic_write_text
-
-        atomic_write_text(args.out, text)
-        print(f"wrote {args.out}")
-    else:
-        print(text, end="")
+    blind_pool.emit(text, args.out)
     return 0
 
 

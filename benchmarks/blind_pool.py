@@ -365,6 +365,18 @@ def _bounds_section(draws: list[dict], classes: list[str]) -> list[str]:
     return L
 
 
+def emit(text: str, out: str | None) -> None:
+    """Write ``text`` whole to ``out`` (:func:`jaxgwo._atomic.atomic_write_text`: no half-written
+    file), or print it where no file is named."""
+    if out:
+        from jaxgwo._atomic import atomic_write_text
+
+        atomic_write_text(out, text)
+        print(f"wrote {out}")
+    else:
+        print(text, end="")
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
@@ -382,13 +394,7 @@ def main(argv=None) -> int:
         except OSError as err:
             raise SystemExit(f"--header {args.header}: {err.strerror}; pass a markdown file, or leave --header out.") from None
     text = pool_report(load_draws(args.workdirs), argv, header)
-    if args.out:
-        from jaxgwo._atomic import atomic_write_text
-
-        atomic_write_text(args.out, text)
-        print(f"wrote {args.out}")
-    else:
-        print(text, end="")
+    emit(text, args.out)
     return 0
 
 
