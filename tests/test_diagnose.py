@@ -2544,7 +2544,7 @@ def test_a_gyro_filter_is_estimated_by_its_output_error_refit_and_decided_by_j()
 ])  # fmt: skip
 def test_a_resonance_named_on_j_is_estimated_by_its_output_error_refit(refit, reported):
     """``J`` reads a lightly damped resonance from a windowed response estimate, which
-    widens its peak (the stored paper-plant modes of draws 373-473: pole damping 1.30 times
+    widens its peak (the stored paper-plant modes of draws 373-473: pole damping 1.27 times
     the truth); a refit to the time histories that is itself a resonance of the
     vocabulary's shape estimates it, and ``J`` still decides."""
     from jaxgwo._diagnose import _output_error_estimate

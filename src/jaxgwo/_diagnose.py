@@ -1531,16 +1531,17 @@ def _output_error_estimate(sc: CandidateScore, refit: tuple | None) -> Candidate
     (the composite's), whose spectral window widens a lightly damped peak, and ``J`` reads
     that widened peak's damping; the time histories have no window.  On the stored
     diagnoses of fresh draws 373-473 (``/work/runs/s66/modeoe.py``) the ``J`` fits of the 97
-    paper-plant resonances named on ``J`` read the pole damping high, median 1.30 times
-    the truth (10-90 %: 1.07-1.77), the zero damping 1.21 times and the frequency 1.005
-    times, the latter several times the quoted 1-sigma.  On the 84 whose refit lay within
-    the ``J`` fit's half-power half-width the refit read 1.007, 1.016 and 1.0002 (median
-    ``|log|`` error of the pole damping 0.263 -> 0.040, of the frequency 0.0062 -> 0.0021),
-    and predicted the held-out records better (R^2 +0.0006, median).  On seven of the eight
-    whose refit lay elsewhere, still such a resonance, the refit was the nearer (seed-421
-    case_014, 18.36 Hz: ``J`` 13.54, refit 17.77; seed-455 case_061, 12.47 Hz: 11.92 and
-    13.08).  The five other ``structural_mode`` verdicts there (wrong ones) either refit no
-    such resonance or named a ``none`` case, whose verdict this does not change.
+    paper-plant resonances named on ``J`` read the pole damping high, median 1.27 times
+    the truth (10-90 %: 1.02-1.78), the zero damping 1.20 times and the frequency 1.005
+    times, the latter several times the quoted 1-sigma.  On the 92 whose refit is such a
+    resonance the refit read 1.006, 1.015 and 1.0001 (median ``|log|`` error of the pole
+    damping 0.263 -> 0.045, of the frequency 0.0068 -> 0.0020; the refit the nearer on 75
+    and 73 of the 92) and predicted the held-out records better (R^2 +0.0006, median).  84
+    of them lay within the ``J`` fit's half-power half-width; of the eight that lay
+    elsewhere the refit was the nearer on seven (seed-421 case_014, 18.36 Hz: ``J`` 13.54,
+    refit 17.77; the exception seed-455 case_061, 12.47 Hz: 11.92 and 13.08).  The five
+    wrong ``structural_mode`` verdicts there keep their verdicts: four paper rate limits
+    whose refit is no resonance, and a ``none`` case.
 
     Not where the refit stops where its search box makes an effect vanish (a cutoff
     of 100 Hz, :func:`_vanished`): the ``J`` fit's then stands.  The ``J`` fit's parameters
