@@ -1485,6 +1485,7 @@ _WHY_OUTPUT_ERROR = {
     "time_delay": "that fit can trade the delay against the servo, and the refit predicts the held-out records better",
 }
 """The summary's reason why :func:`_output_error_estimate` reports an effect's refit."""
+
 _DELAY_REFIT_R2 = 0.001
 """How much better (held-out R^2) a ``time_delay``'s output-error refit must predict the
 held-out records than its ``J`` fit for the refit's delay to be reported
