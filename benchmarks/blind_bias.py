@@ -20,7 +20,6 @@ workdir, made by the commit that diagnosed it.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 
@@ -37,7 +36,8 @@ def signed_errors(key: dict, results: dict) -> list[dict]:
     """One row per parameter of each right verdict of a draw: ``{"case", "effect",
     "param", "plant", "structure", "error", "z"}``, ``error`` the ratio or scaled
     difference (:data:`DIFFERENCE`) and ``z`` the error in units of the quoted 1-sigma
-    (``None`` where none was quoted)."""
+    (:func:`blind_diagnosis.bound_z`; ``None`` where none was quoted)."""
+    blind = blind_pool._blind()
     rows = []
     for case, doc in sorted(results.items()):
         k = key[case]
@@ -45,12 +45,10 @@ def signed_errors(key: dict, results: dict) -> list[dict]:
         if effect == "none" or doc.get("verdict") != effect:
             continue
         top = doc["ranking"][0]
-        sigma = top.get("params_sigma") or {}
         for p, truth in k["params"].items():
             fit = float(top["params"][p])
             err = DIFFERENCE[p][1] * (fit - truth) if p in DIFFERENCE else fit / truth
-            s = sigma.get(p)
-            z = abs(fit - truth) / s if s is not None and math.isfinite(s) and s > 0 else None
+            z = blind.bound_z(effect, k["params"], top["params"], top.get("params_sigma"), param=p)
             rows.append({"case": case, "effect": effect, "param": p, "plant": k["plant"],
                          "structure": doc.get("structure") is not None, "error": err, "z": z})
     return rows

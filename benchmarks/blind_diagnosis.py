@@ -410,11 +410,12 @@ def estimate_counts(rows) -> dict:
     return out
 
 
-def bound_z(effect: str, truth: dict, fit: dict, sigma: dict | None) -> float | None:
+def bound_z(effect: str, truth: dict, fit: dict, sigma: dict | None, param: str | None = None) -> float | None:
     """The effect's parameter error in units of its quoted 1-sigma, ``|fit - truth| / sigma``
     (the report's ``params`` and ``params_sigma`` of a candidate); ``None`` where no finite,
-    positive sigma was quoted."""
-    p = _MAIN_PARAM[effect]
+    positive sigma was quoted.  The parameter is the one the report scores
+    (:data:`_MAIN_PARAM`) unless ``param`` names another of the effect's."""
+    p = param or _MAIN_PARAM[effect]
     s = (sigma or {}).get(p)
     if s is None or not (math.isfinite(s) and s > 0) or fit.get(p) is None:
         return None
