@@ -2271,6 +2271,46 @@ def test_a_nonlinearity_of_lower_j_within_the_margin_is_ranked_ahead_of_another(
     assert _nonlinearity_by_j(failing, margin) == tuple(failing)
 
 
+def _with_p(effect, score, p, ok=False, **detail):
+    return dataclasses.replace(_scored(effect, score, ok), train_p=p, detail=detail)
+
+
+@pytest.mark.parametrize("cands, order", [
+    # a passing head stays; the failing tail goes by p, not by score
+    ([("time_delay", 1.2, 1e-9, True), ("structural_mode", -9.9, 0.3), ("rate_limit", -10.0, 1e-4),
+      ("backlash", -9.95, 1.0)],
+     ["time_delay", "rate_limit", "structural_mode", "backlash"]),
+    # two passing ones keep their order, even against a failing one of smaller p
+    ([("saturation", 0.5, 1e-3, True), ("backlash", 0.4, 1e-2, True), ("rate_limit", -9.5, 1e-12)],
+     ["saturation", "backlash", "rate_limit"]),
+    # a none verdict: the whole ranking by p, ties (p 1) in score order
+    ([("cross_coupling", -9.95, 2.4e-4), ("backlash", -9.96, 1.0), ("saturation", -9.97, 1.0),
+      ("time_delay", -10.0, 0.20), ("structural_mode", -10.18, 0.34), ("rate_limit", -10.2, 1e-6)],
+     ["rate_limit", "cross_coupling", "time_delay", "structural_mode", "backlash", "saturation"]),
+    # the two lags share their p and keep their order (the gyro path may have set it)
+    ([("rotor_flapping", -9.85, 4.1482689015136e-4), ("sensor_lag", -9.86, 4.1482689015107e-4),
+      ("time_delay", -9.87, 2.96e-4), ("backlash", -9.5, 1.0)],
+     ["time_delay", "rotor_flapping", "sensor_lag", "backlash"]),
+    # a lag the gyro path refuted, and a p that is no number, go last
+    ([("sensor_lag", -8.0, 1e-8, False, 1.0), ("rotor_flapping", -9.0, 1e-8), ("backlash", -9.1, float("nan")),
+      ("saturation", -9.2, 0.5)],
+     ["rotor_flapping", "saturation", "sensor_lag", "backlash"]),
+])  # fmt: skip
+def test_the_candidates_that_do_not_beat_noise_are_ordered_by_their_identification_evidence(cands, order):
+    """``_failing_by_evidence``: the verdict and every candidate that beats noise keep their
+    places; the rest follow their ``train_p`` (the lags as one, a refuted lag last)."""
+    from jaxgwo._diagnose import _failing_by_evidence
+
+    ranking = [_with_p(e, s, p, *rest[:1], **({"refuted_by_gyro_path": 1.0} if rest[1:] else {}))
+               for e, s, p, *rest in cands]  # fmt: skip
+    out = _failing_by_evidence(ranking)
+    assert [c.effects[0] for c in out] == order
+    assert sorted(map(id, out)) == sorted(map(id, ranking))  # the same candidates, untouched
+    passing = [c for c in ranking if c.beats_noise]
+    assert list(out[: len(passing)]) == passing
+    assert _failing_by_evidence(out) == out  # idempotent
+
+
 def _on_paper_model(effect, score, cost_J, ok=True, **mode):
     sc = dataclasses.replace(_scored(effect, score, ok), cost_J=cost_J)
     if effect == "structural_mode":
