@@ -1550,6 +1550,12 @@ def test_time_delay_case_is_found_estimated_and_reported():
     assert f"time_delay = {ms:.1f} ms (+-{sig_ms:.1f})" in d.summary()
     assert "model-form bias" not in d.summary()  # no structure finding: the model form is the plant's
     assert "the airframe's own included" not in d.summary()  # the coupling caveat: coupling verdicts only
+    # the bound counts half the difference of the J fit's and the output-error refit's readings
+    other = top.detail["j_delay_s"] if top.detail.get("estimate_output_error") else top.detail["td_delay_s"]
+    half = top.detail["two_readings_half_spread"]
+    assert half == pytest.approx(0.5 * abs(top.params["time_delay"]["delay_s"] - other), rel=1e-9)
+    assert top.sigma["time_delay"]["delay_s"] >= half
+    assert "half the difference between the frequency-domain fit's reading" in d.summary()
     _check_json_report_schema(d)
     # the summary sets the null refit (no effect) beside the verdict's model: below it, level
     # with it to the 3 quoted decimals, above it
@@ -2606,6 +2612,48 @@ def test_a_resonance_named_on_j_is_estimated_by_its_output_error_refit(refit, re
     assert (out.val_r2, out.gap_closed) == (td.val_r2, td.gap_closed)
     assert out.beats_noise and (out.score, out.train_p, out.z_score) == (1.2, 1e-9, 2.0)  # J decides
     assert out.detail == {"j_freq_hz": 12.57, "j_zeta_p": 0.030, "j_zeta_z": 0.35, "estimate_output_error": 1.0}
+
+
+@pytest.mark.parametrize("effect, param, j_value, td_value, reported", [
+    # a delay J reads 41 ms (+-1) and the refit 44: J's reading stands, +- sqrt(1 + 1.5^2)
+    ("time_delay", "delay_s", 0.041, 0.044, "j"),
+    # the refit reported (it predicts the held-out records better): the same bound about it
+    ("time_delay", "delay_s", 0.041, 0.044, "td"),
+    ("rotor_flapping", "tau_f", 0.020, 0.026, "j"),
+    # a refit that stopped where the effect vanishes is no second reading
+    ("time_delay", "delay_s", 0.041, 0.0005, None),
+    ("rotor_flapping", "tau_f", 0.020, 0.0002, None),
+    # a resonance's readings differ by J's windowed peak, a bias: no widening
+    ("structural_mode", "freq_hz", 12.0, 12.3, None),
+])  # fmt: skip
+def test_a_lag_read_by_both_fits_counts_half_their_difference_in_its_bound(effect, param, j_value, td_value, reported):
+    """``_two_readings_bound``: two readings of one quantity give half their difference as
+    the standard uncertainty of their mean (GUM 4.2, two observations); it is added in
+    quadrature to the quoted 1-sigma, and the estimate does not move."""
+    from jaxgwo._diagnose import _two_readings_bound
+
+    sigma = 0.001 if effect == "time_delay" else 0.002
+
+    def cand(value, ok=True, **detail):
+        c = dataclasses.replace(_scored(effect, 1.0, ok), params={effect: {param: value}},
+                                sigma={effect: {param: sigma}})  # fmt: skip
+        return dataclasses.replace(c, detail=detail)
+
+    td = cand(td_value, ok=False)
+    sc = cand(td_value, estimate_output_error=1.0, **{f"j_{param}": j_value}) if reported == "td" else cand(j_value)
+    out = _two_readings_bound(sc, (td, None))
+    if reported is None:
+        assert out is sc
+        return
+    half = 0.5 * abs(j_value - td_value)
+    assert out.params == sc.params  # the estimate stays
+    assert out.sigma[effect][param] == pytest.approx(math.sqrt(sigma**2 + half**2), rel=1e-12)
+    assert out.detail["two_readings_half_spread"] == pytest.approx(half, rel=1e-12)
+    assert {k: v for k, v in out.detail.items() if k != "two_readings_half_spread"} == sc.detail
+    # no refit, or the refit the only reading (the time-domain path): unchanged
+    assert _two_readings_bound(sc, None) is sc
+    on_path = dataclasses.replace(sc, detail=sc.detail | {"time_domain_path": 1.0})
+    assert _two_readings_bound(on_path, (td, None)) is on_path
 
 
 @pytest.mark.parametrize("scores, names", [
