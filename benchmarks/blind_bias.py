@@ -19,7 +19,6 @@ workdir, made by the commit that diagnosed it.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 
@@ -91,20 +90,7 @@ def bias_report(draws: list[tuple[str, list[dict]]], argv: list[str]) -> str:
 
 
 def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("workdirs", nargs="+", help="blind_diagnosis.py workdirs, each simulated and diagnosed")
-    ap.add_argument("--out", default=None, help="write the markdown here (default: print it)")
-    args = ap.parse_args(argv)
-    draws, seeds = [], []
-    for w in args.workdirs:
-        draw, key, results = blind_pool.read_workdir(w)
-        seeds.append(draw.get("seed"))
-        draws.append((w, signed_errors(key, results)))
-    blind_pool.refuse_repeated_seeds(seeds)
-    text = bias_report(draws, argv)
-    blind_pool.emit(text, args.out)
-    return 0
+    return blind_pool.workdir_table_main(argv, __doc__, signed_errors, bias_report)
 
 
 if __name__ == "__main__":

@@ -377,6 +377,26 @@ def emit(text: str, out: str | None) -> None:
         print(text, end="")
 
 
+def workdir_table_main(argv, description: str, rows_of, report) -> int:
+    """The command line of a table over whole diagnosed workdirs (``blind_bias.py``,
+    ``blind_tail_order.py``): ``W ... [--out F]``, each workdir read by :func:`read_workdir`,
+    its rows ``rows_of(key, diagnoses)``, a seed given twice refused before anything is
+    written, and ``report([(workdir, rows), ...], argv)`` emitted (:func:`emit`)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    ap = argparse.ArgumentParser(description=description, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("workdirs", nargs="+", help="blind_diagnosis.py workdirs, each simulated and diagnosed")
+    ap.add_argument("--out", default=None, help="write the markdown here (default: print it)")
+    args = ap.parse_args(argv)
+    draws, seeds = [], []
+    for w in args.workdirs:
+        draw, key, results = read_workdir(w)
+        seeds.append(draw.get("seed"))
+        draws.append((w, rows_of(key, results)))
+    refuse_repeated_seeds(seeds)
+    emit(report(draws, argv), args.out)
+    return 0
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)

@@ -17,7 +17,6 @@ candidates that beat noise only) are the same under both.  Nothing is diagnosed 
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
 import os
@@ -113,19 +112,7 @@ def tail_report(draws: list[tuple[str, list[dict]]], argv: list[str]) -> str:
 
 
 def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("workdirs", nargs="+", help="blind_diagnosis.py workdirs, each simulated and diagnosed")
-    ap.add_argument("--out", default=None, help="write the markdown here (default: print it)")
-    args = ap.parse_args(argv)
-    draws, seeds = [], []
-    for w in args.workdirs:
-        draw, key, results = blind_pool.read_workdir(w)
-        seeds.append(draw.get("seed"))
-        draws.append((w, tail_rows(key, results)))
-    blind_pool.refuse_repeated_seeds(seeds)
-    blind_pool.emit(tail_report(draws, argv), args.out)
-    return 0
+    return blind_pool.workdir_table_main(argv, __doc__, tail_rows, tail_report)
 
 
 if __name__ == "__main__":
