@@ -9,7 +9,8 @@ noise, then ``none``, then the rest) then counts the candidate that leads the re
 script orders that tail both ways from each stored ranking, whatever order the commit
 that diagnosed the draw stored: by the ranking's score (highest first, the order before
 :func:`jaxgwo._diagnose._failing_by_evidence`) and by that function itself (the smallest
-identification p first), and counts, per plant and true effect, the cases whose truth is
+identification p first, the lags in the gyro path's order and ahead of a delay of like
+evidence), and counts, per plant and true effect, the cases whose truth is
 in the top two either way and the ``none`` verdicts whose tail the truth leads.  No
 verdict and no candidate that beats noise moves, so top-1 and the headline top-2 (the
 candidates that beat noise only) are the same under both.  Nothing is diagnosed again.
@@ -43,10 +44,24 @@ def _candidate(doc: dict):
                                    "detail": dict(doc.get("detail") or {})})  # fmt: skip
 
 
-def reorder(ranking: list[dict], order: str) -> list[dict]:
+def filter_held(doc: dict) -> bool | None:
+    """What :func:`jaxgwo._diagnose._gyro_filter_held` decided for a stored diagnosis: ``None``
+    where the gyro path was not tested, else whether it shows a filter (at the default
+    ``alpha``, as the report's ``filter_found``) below the ``sensor_lag`` box's top."""
+    from jaxgwo._diagnose_which import _Z_HI
+
+    g = (doc.get("where") or {}).get("gyro_path") or {}
+    if not g.get("tested"):
+        return None
+    cutoff = g.get("cutoff_hz")
+    return bool(g.get("filter_found") and cutoff is not None and math.log(cutoff) < _Z_HI[1])
+
+
+def reorder(ranking: list[dict], order: str, held: bool | None = None) -> list[dict]:
     """``ranking`` (stored entries, best first) with its tail of candidates that do not beat
     noise (after the last one that does) sorted by ``order``: ``"score"``, highest first,
-    ties in their stored order; ``"evidence"``, :func:`jaxgwo._diagnose._failing_by_evidence`."""
+    ties in their stored order; ``"evidence"``, :func:`jaxgwo._diagnose._failing_by_evidence`
+    with the gyro path's ``held`` (:func:`filter_held`)."""
     last = max((i for i, c in enumerate(ranking) if c["beats_noise"]), default=-1)
     head, tail = ranking[: last + 1], ranking[last + 1 :]
     if order == "score":
@@ -56,7 +71,7 @@ def reorder(ranking: list[dict], order: str) -> list[dict]:
     from jaxgwo._diagnose import _failing_by_evidence
 
     cands = [_candidate(c) for c in ranking]
-    out = _failing_by_evidence(cands)
+    out = _failing_by_evidence(cands, held)
     return [ranking[next(i for i, c in enumerate(cands) if c is o)] for o in out]
 
 
@@ -72,7 +87,8 @@ def tail_rows(key: dict, results: dict) -> list[dict]:
             continue
         row = {"case": case, "plant": k["plant"], "effect": k["effect"], "none_verdict": doc.get("verdict") == "none"}
         for order in ORDERS:
-            classes = blind.class_order(doc | {"ranking": reorder(list(doc.get("ranking", [])), order)})
+            ranking = reorder(list(doc.get("ranking", [])), order, filter_held(doc))
+            classes = blind.class_order(doc | {"ranking": ranking})
             row[f"top2_{order}"] = k["effect"] in classes[:2]
             row[f"leads_{order}"] = row["none_verdict"] and classes[1:2] == [k["effect"]]
         rows.append(row)

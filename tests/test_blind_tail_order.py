@@ -78,3 +78,17 @@ def test_a_repeated_seed_is_refused_and_nothing_is_written(tail, tmp_path):
     with pytest.raises(SystemExit, match=r"seed\(s\) \[1\] appear in more than one"):
         tail.main([a, b, "--out", str(out)])
     assert not out.exists()
+
+
+@pytest.mark.parametrize("gyro, held", [
+    ({"tested": False}, None),
+    ({"tested": True, "filter_found": False, "cutoff_hz": 30.0}, False),
+    ({"tested": True, "filter_found": True, "cutoff_hz": 30.0}, True),
+    ({"tested": True, "filter_found": True, "cutoff_hz": 150.0}, False),  # above the candidate's box
+])  # fmt: skip
+def test_the_gyro_path_read_back_orders_the_lags_as_the_diagnosis_did(tail, gyro, held):
+    doc = {"where": {"gyro_path": gyro}}
+    assert tail.filter_held(doc) is held
+    ranking = [_c("sensor_lag", -9.8, 0.2), _c("rotor_flapping", -9.9, 0.2)]
+    first = [c["effect"] for c in tail.reorder(ranking, "evidence", tail.filter_held(doc))][0]
+    assert first == {None: "sensor_lag", False: "rotor_flapping", True: "sensor_lag"}[held]

@@ -2281,40 +2281,54 @@ def _with_p(effect, score, p, ok=False, **detail):
     return dataclasses.replace(_scored(effect, score, ok), train_p=p, detail=detail)
 
 
-@pytest.mark.parametrize("cands, order", [
+@pytest.mark.parametrize("cands, held, order", [
     # a passing head stays; the failing tail goes by p, not by score
     ([("time_delay", 1.2, 1e-9, True), ("structural_mode", -9.9, 0.3), ("rate_limit", -10.0, 1e-4),
-      ("backlash", -9.95, 1.0)],
+      ("backlash", -9.95, 1.0)], None,
      ["time_delay", "rate_limit", "structural_mode", "backlash"]),
     # two passing ones keep their order, even against a failing one of smaller p
-    ([("saturation", 0.5, 1e-3, True), ("backlash", 0.4, 1e-2, True), ("rate_limit", -9.5, 1e-12)],
+    ([("saturation", 0.5, 1e-3, True), ("backlash", 0.4, 1e-2, True), ("rate_limit", -9.5, 1e-12)], None,
      ["saturation", "backlash", "rate_limit"]),
     # a none verdict: the whole ranking by p, ties (p 1) in score order
     ([("cross_coupling", -9.95, 2.4e-4), ("backlash", -9.96, 1.0), ("saturation", -9.97, 1.0),
-      ("time_delay", -10.0, 0.20), ("structural_mode", -10.18, 0.34), ("rate_limit", -10.2, 1e-6)],
+      ("time_delay", -10.0, 0.20), ("structural_mode", -10.18, 0.34), ("rate_limit", -10.2, 1e-6)], None,
      ["rate_limit", "cross_coupling", "time_delay", "structural_mode", "backlash", "saturation"]),
-    # the two lags share their p and keep their order (the gyro path may have set it)
+    # the two lags share their p and keep their order without the gyro path; a delay ahead
+    # of them by less than a factor 10 in p has them go ahead of it
     ([("rotor_flapping", -9.85, 4.1482689015136e-4), ("sensor_lag", -9.86, 4.1482689015107e-4),
-      ("time_delay", -9.87, 2.96e-4), ("backlash", -9.5, 1.0)],
-     ["time_delay", "rotor_flapping", "sensor_lag", "backlash"]),
+      ("time_delay", -9.87, 2.96e-4), ("backlash", -9.5, 1.0)], None,
+     ["rotor_flapping", "sensor_lag", "time_delay", "backlash"]),
+    # ... by more, not (an R-50 delay of the stored draws: the lags at 15 times its p)
+    ([("sensor_lag", -9.85, 2.1e-2), ("rotor_flapping", -9.86, 2.1e-2), ("time_delay", -9.87, 1.4e-3),
+      ("cross_coupling", -9.0, 1e-2)], None,
+     ["time_delay", "cross_coupling", "sensor_lag", "rotor_flapping"]),
+    # the gyro path tested: its order of the lags, a filter held or not
+    ([("sensor_lag", -9.85, 0.2), ("rotor_flapping", -9.86, 0.2), ("backlash", -9.0, 0.1)], False,
+     ["backlash", "rotor_flapping", "sensor_lag"]),
+    ([("rotor_flapping", -9.85, 0.2), ("sensor_lag", -9.86, 0.2), ("backlash", -9.0, 0.1)], True,
+     ["backlash", "sensor_lag", "rotor_flapping"]),
+    # tied with others at p 1 the lags still stand together, at the first one's place
+    ([("backlash", -9.0, 1.0), ("sensor_lag", -9.1, 1.0), ("saturation", -9.2, 1.0), ("rotor_flapping", -9.3, 1.0)],
+     False, ["backlash", "rotor_flapping", "sensor_lag", "saturation"]),
     # a lag the gyro path refuted, and a p that is no number, go last
     ([("sensor_lag", -8.0, 1e-8, False, 1.0), ("rotor_flapping", -9.0, 1e-8), ("backlash", -9.1, float("nan")),
-      ("saturation", -9.2, 0.5)],
+      ("saturation", -9.2, 0.5)], True,
      ["rotor_flapping", "saturation", "sensor_lag", "backlash"]),
 ])  # fmt: skip
-def test_the_candidates_that_do_not_beat_noise_are_ordered_by_their_identification_evidence(cands, order):
+def test_the_candidates_that_do_not_beat_noise_are_ordered_by_their_identification_evidence(cands, held, order):
     """``_failing_by_evidence``: the verdict and every candidate that beats noise keep their
-    places; the rest follow their ``train_p`` (the lags as one, a refuted lag last)."""
+    places; the rest follow their ``train_p``, the lags as one (in the gyro path's order,
+    ahead of a delay of like evidence; a refuted lag last)."""
     from jaxgwo._diagnose import _failing_by_evidence
 
     ranking = [_with_p(e, s, p, *rest[:1], **({"refuted_by_gyro_path": 1.0} if rest[1:] else {}))
                for e, s, p, *rest in cands]  # fmt: skip
-    out = _failing_by_evidence(ranking)
+    out = _failing_by_evidence(ranking, held)
     assert [c.effects[0] for c in out] == order
     assert sorted(map(id, out)) == sorted(map(id, ranking))  # the same candidates, untouched
     passing = [c for c in ranking if c.beats_noise]
     assert list(out[: len(passing)]) == passing
-    assert _failing_by_evidence(out) == out  # idempotent
+    assert _failing_by_evidence(out, held) == out  # idempotent
 
 
 def _on_paper_model(effect, score, cost_J, ok=True, **mode):

@@ -1162,24 +1162,41 @@ def _best_first(c: CandidateScore) -> float:
     return -c.score if math.isfinite(c.score) else math.inf
 
 
-def _failing_by_evidence(ranking: Sequence[CandidateScore]) -> tuple[CandidateScore, ...]:
+_TAIL_LAG_OVER_DELAY_P = 10.0
+"""How many times a ``time_delay``'s identification p the lags' may be, in the tail of
+candidates that do not beat noise, for the lags to go ahead of it (:func:`_failing_by_evidence`)."""
+
+
+def _failing_by_evidence(ranking: Sequence[CandidateScore], filter_held: bool | None = None) -> tuple[CandidateScore, ...]:
     """``ranking`` (best first) with its tail of candidates that do not beat noise ordered by
     their identification evidence: the smallest ``train_p`` first (``J``'s F-test, the
     output error's or the off-axis gain's, as :func:`_unconfirmed` reads it), ties in their
-    order.  The two lags of :data:`_SAME_INPUT_OUTPUT` share the smaller of their two p (they
-    fit the same responses, so their p differ by rounding) and keep their order, which the
-    gyro path may have set; a lag the gyro path refuted, and a p that is not a number, go
-    last.  The candidates that beat noise, the verdict among them, keep their places.
+    order.  The candidates that beat noise, the verdict among them, keep their places.
+
+    The two lags of :data:`_SAME_INPUT_OUTPUT` share the smaller of their two p (they fit
+    the same responses, so their p differ by rounding) and stand together; where the gyro
+    path was tested (``filter_held`` not ``None``: :func:`_gyro_filter_held`), the
+    ``sensor_lag`` first if it holds a filter and the ``rotor_flapping`` first if not, as
+    :func:`_gyro_path_order` orders them when they pass; otherwise in their order.  A lag
+    the gyro path refuted, and a p that is not a number, go last.  A ``time_delay`` ahead
+    of the lags whose p is no more than :data:`_TAIL_LAG_OVER_DELAY_P` times smaller has
+    them go ahead of it, as :func:`_lag_over_delay` and :func:`_lag_over_short_delay` move
+    passing lags: no cyclic input separates a lag from a short delay, and a delay the
+    data show is seldom left below noise.
 
     The score that orders the ranking adds the held-out gap to the ``J`` evidence, which
     for a candidate the held-out records did not confirm is mostly their noise.  Replayed on
     the stored diagnoses of fresh draws 373-485 (``benchmarks/blind_tail_order.py``; 2368
     effect cases, 312 answered ``none``) the truth led that tail on 88 of the 312 in score
-    order and on 138 in this one, and top-2 over the whole ranking (the verdict, then
+    order and on 138 by p alone, and top-2 over the whole ranking (the verdict, then
     ``none``, then this tail) rose from 2116 to 2166: paper resonances, which the held-out
-    records excite little, 163 -> 209; on the R-50 461 -> 460.  It moves no verdict, and
-    the headline top-2 counts only candidates that beat noise; ``combined_top2`` of a
-    ``none`` verdict and the summary's "Unconfirmed" leads follow the new order."""
+    records excite little, 163 -> 209; on the R-50 461 -> 460.  A delay led the tail by p
+    on 48 of those ``none`` verdicts, 44 of them flapping lags (the lags' p 1.0-3.4 times
+    the delay's) and one an R-50 delay (15.2 times); with the lags over it and in the gyro
+    path's order, 2215 (paper 25 more, R-50 24 more, none lost).  In sample: the factor
+    lies between 3.4 and 15.2 on one delay.  It moves no verdict, and the headline top-2
+    counts only candidates that beat noise; ``combined_top2`` of a ``none`` verdict and the
+    summary's "Unconfirmed" leads follow the new order."""
     ranking = tuple(ranking)
     last = max((i for i, c in enumerate(ranking) if c.beats_noise), default=-1)
     head, tail = ranking[: last + 1], ranking[last + 1 :]
@@ -1192,8 +1209,18 @@ def _failing_by_evidence(ranking: Sequence[CandidateScore]) -> tuple[CandidateSc
         twin = (_SAME_INPUT_OUTPUT.get(c.effects[0]),) if len(c.effects) == 1 else None
         if twin in p and p[c.effects] < math.inf and p[twin] < math.inf:
             p[c.effects] = p[twin] = min(p[c.effects], p[twin])
-    order = sorted(range(len(tail)), key=lambda i: (p[tail[i].effects], i))
-    return (*head, *(tail[i] for i in order))
+    tail = [tail[i] for i in sorted(range(len(tail)), key=lambda i: (p[tail[i].effects], i))]
+    lags = [c for c in tail if c.effects in ((e,) for e in _LAGS) and p[c.effects] < math.inf]
+    if not lags:
+        return (*head, *tail)
+    if filter_held is not None:
+        lags.sort(key=lambda c: c.effects != (("sensor_lag",) if filter_held else ("rotor_flapping",)))
+    rest = [c for c in tail if not any(c is x for x in lags)]
+    at = next(i for i, c in enumerate(tail) if c is lags[0] or c is lags[-1])  # the lags' place among the rest
+    delay = next((i for i, c in enumerate(rest[:at]) if c.effects == ("time_delay",)), None)
+    if delay is not None and p[lags[0].effects] <= _TAIL_LAG_OVER_DELAY_P * p[rest[delay].effects]:
+        at = delay
+    return (*head, *rest[:at], *lags, *rest[at:])
 
 
 def _passing_delay_at_head(ranking: tuple[CandidateScore, ...]) -> bool:
@@ -2509,7 +2536,8 @@ def diagnose(
         if settings.alpha_lag_on_structure:  # a delay below the vocabulary's is a lag's
             ranking = _lag_over_short_delay(ranking)
     ranking = _gyro_path_order(ranking, gyro, settings.alpha)
-    ranking = _failing_by_evidence(_nonlinearity_by_j(ranking, settings.nonlinearity_by_j))
+    ranking = _failing_by_evidence(_nonlinearity_by_j(ranking, settings.nonlinearity_by_j),
+                                   _gyro_filter_held(gyro, settings.alpha) if gyro.tested else None)
     verdict = ranking[0].effects[0] if ranking and ranking[0].beats_noise else "none"
     if structure is None:
         # a gyro filter's model handed over is its output-error refit (_output_error_estimate)
