@@ -1550,12 +1550,13 @@ def test_time_delay_case_is_found_estimated_and_reported():
     assert f"time_delay = {ms:.1f} ms (+-{sig_ms:.1f})" in d.summary()
     assert "model-form bias" not in d.summary()  # no structure finding: the model form is the plant's
     assert "the airframe's own included" not in d.summary()  # the coupling caveat: coupling verdicts only
-    # the bound counts half the difference of the J fit's and the output-error refit's readings
-    other = top.detail["j_delay_s"] if top.detail.get("estimate_output_error") else top.detail["td_delay_s"]
-    half = top.detail["two_readings_half_spread"]
-    assert half == pytest.approx(0.5 * abs(top.params["time_delay"]["delay_s"] - other), rel=1e-9)
-    assert top.sigma["time_delay"]["delay_s"] >= half
-    assert "half the difference between the frequency-domain fit's reading" in d.summary()
+    # the delay is the inverse-variance mean of the J fit's and the output-error refit's readings
+    det = top.detail
+    w = np.array([det["j_sigma_delay_s"], det["td_sigma_delay_s"]]) ** -2.0
+    mean = float(np.average([det["j_delay_s"], det["td_delay_s"]], weights=w))
+    assert top.params["time_delay"]["delay_s"] == pytest.approx(mean, rel=1e-9)
+    assert top.sigma["time_delay"]["delay_s"] == pytest.approx(det["delay_scale_factor"] / math.sqrt(w.sum()))
+    assert "The delay is the inverse-variance mean of the frequency-domain fit's reading" in d.summary()
     _check_json_report_schema(d)
     # the summary sets the null refit (no effect) beside the verdict's model: below it, level
     # with it to the 3 quoted decimals, above it
@@ -2629,14 +2630,14 @@ def test_a_resonance_named_on_j_is_estimated_by_its_output_error_refit(refit, re
 
 
 @pytest.mark.parametrize("effect, param, j_value, td_value, reported", [
-    # a delay J reads 41 ms (+-1) and the refit 44: J's reading stands, +- sqrt(1 + 1.5^2)
-    ("time_delay", "delay_s", 0.041, 0.044, "j"),
-    # the refit reported (it predicts the held-out records better): the same bound about it
-    ("time_delay", "delay_s", 0.041, 0.044, "td"),
+    # a flapping lag J reads 20 ms (+-2) and the refit 26: J's reading stands, +- sqrt(2^2 + 3^2)
     ("rotor_flapping", "tau_f", 0.020, 0.026, "j"),
+    # the refit reported: the same bound about it
+    ("rotor_flapping", "tau_f", 0.020, 0.026, "td"),
     # a refit that stopped where the effect vanishes is no second reading
-    ("time_delay", "delay_s", 0.041, 0.0005, None),
     ("rotor_flapping", "tau_f", 0.020, 0.0002, None),
+    # a delay's two readings are combined instead (_delay_from_two_readings)
+    ("time_delay", "delay_s", 0.041, 0.044, None),
     # a resonance's readings differ by J's windowed peak, a bias: no widening
     ("structural_mode", "freq_hz", 12.0, 12.3, None),
 ])  # fmt: skip
@@ -2668,6 +2669,46 @@ def test_a_lag_read_by_both_fits_counts_half_their_difference_in_its_bound(effec
     assert _two_readings_bound(sc, None) is sc
     on_path = dataclasses.replace(sc, detail=sc.detail | {"time_domain_path": 1.0})
     assert _two_readings_bound(on_path, (td, None)) is on_path
+
+
+@pytest.mark.parametrize("d_j, s_j, d_t, s_t, reported", [
+    # seed-491 case_029 (34.1 ms): J 52.7 +-75.6, the refit 29.5 +-4.1; J's model reported
+    (0.0527, 0.0756, 0.0295, 0.0041, "j"),
+    # two readings that disagree beyond their bounds: the mean's bound scaled (S = 5 / sqrt(2))
+    (0.040, 0.001, 0.045, 0.001, "td"),
+    # two that agree: no scaling
+    (0.040, 0.002, 0.041, 0.001, "j"),
+])  # fmt: skip
+def test_a_delay_read_by_both_fits_is_their_inverse_variance_mean(d_j, s_j, d_t, s_t, reported):
+    """``_delay_from_two_readings`` against the textbook weighted mean, with the Particle Data
+    Group's scale factor for readings that disagree; the reported model stays."""
+    from jaxgwo._diagnose import _delay_from_two_readings
+
+    def cand(d, s, ok=True, **detail):
+        c = dataclasses.replace(_scored("time_delay", 1.0, ok), params={"time_delay": {"delay_s": d}},
+                                sigma={"time_delay": {"delay_s": s}}, val_r2=0.99, predicted=("model",))  # fmt: skip
+        return dataclasses.replace(c, detail=detail)
+
+    j_fit, td = cand(d_j, s_j), cand(d_t, s_t, ok=False)
+    sc = cand(d_t, s_t, estimate_output_error=1.0, j_delay_s=d_j) if reported == "td" else j_fit
+    out = _delay_from_two_readings(j_fit, sc, (td, None))
+    w = np.array([s_j, s_t]) ** -2.0
+    mean = float(np.average([d_j, d_t], weights=w))
+    chi2 = float(np.sum(w * (np.array([d_j, d_t]) - mean) ** 2))  # PDG: S = sqrt(chi^2 / (N - 1)), N = 2
+    scale = max(1.0, math.sqrt(chi2))
+    assert out.params["time_delay"]["delay_s"] == pytest.approx(mean, rel=1e-12)
+    assert out.sigma["time_delay"]["delay_s"] == pytest.approx(scale / math.sqrt(w.sum()), rel=1e-12)
+    assert out.detail["delay_scale_factor"] == pytest.approx(scale, rel=1e-12)
+    assert (out.detail["j_delay_s"], out.detail["td_delay_s"]) == (d_j, d_t)
+    assert (out.detail["j_sigma_delay_s"], out.detail["td_sigma_delay_s"]) == (s_j, s_t)
+    assert (out.val_r2, out.predicted, out.beats_noise) == (sc.val_r2, sc.predicted, sc.beats_noise)
+    assert out.detail.get("estimate_output_error") == sc.detail.get("estimate_output_error")
+    # no refit, the refit the only reading, a vanished refit, a bound that is no number: unchanged
+    assert _delay_from_two_readings(j_fit, sc, None) is sc
+    on_path = dataclasses.replace(j_fit, detail={"time_domain_path": 1.0})
+    assert _delay_from_two_readings(on_path, on_path, (td, None)) is on_path
+    assert _delay_from_two_readings(j_fit, sc, (cand(0.0005, s_t), None)) is sc
+    assert _delay_from_two_readings(j_fit, sc, (cand(d_t, float("nan")), None)) is sc
 
 
 @pytest.mark.parametrize("scores, names", [
