@@ -62,17 +62,16 @@ def reorder(ranking: list[dict], order: str, held: bool | None = None) -> list[d
     noise (after the last one that does) sorted by ``order``: ``"score"``, highest first,
     ties in their stored order; ``"evidence"``, :func:`jaxgwo._diagnose._failing_by_evidence`
     with the gyro path's ``held`` (:func:`filter_held`)."""
-    last = max((i for i, c in enumerate(ranking) if c["beats_noise"]), default=-1)
-    head, tail = ranking[: last + 1], ranking[last + 1 :]
     if order == "score":
         from jaxgwo._diagnose import _best_first
 
-        return head + sorted(tail, key=lambda c: _best_first(_candidate(c)))
+        last = max((i for i, c in enumerate(ranking) if c["beats_noise"]), default=-1)
+        return ranking[: last + 1] + sorted(ranking[last + 1 :], key=lambda c: _best_first(_candidate(c)))
     from jaxgwo._diagnose import _failing_by_evidence
 
     cands = [_candidate(c) for c in ranking]
-    out = _failing_by_evidence(cands, held)
-    return [ranking[next(i for i, c in enumerate(cands) if c is o)] for o in out]
+    index = {id(c): i for i, c in enumerate(cands)}
+    return [ranking[index[id(c)]] for c in _failing_by_evidence(cands, held)]
 
 
 def tail_rows(key: dict, results: dict) -> list[dict]:
