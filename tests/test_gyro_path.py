@@ -252,6 +252,9 @@ def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter(tmp_path):
     top = d.ranking[0]
     assert top.detail.get("cutoff_from_gyro_path") == 1.0
     assert top.params["sensor_lag"]["cutoff_hz"] == pytest.approx(gp["cutoff_hz"], rel=1e-6)
+    # the model handed over: servo and rotor term refitted to the time histories, the cutoff held
+    assert top.detail.get("estimate_output_error") == 1.0
+    assert "with the cutoff held at the gyro path's measurement" in d.summary()
     assert "Gyro path against the logged attitude" in d.summary()
     assert "rotor_flapping" not in d.suggestion  # the two lags are told apart: no advice to separate them
     png = tmp_path / "d.png"
@@ -310,3 +313,32 @@ def test_a_gyro_filter_above_the_nyquist_frequency_is_no_finding():
     lag = _scored("sensor_lag", 1.9, True, {"sensor_lag": {"cutoff_hz": 80.0}})
     ranking = (_scored("rotor_flapping", 2.0), lag)
     assert _gyro_path_order(ranking, g, 1e-3) == ranking  # not ranked first on the path's evidence
+
+
+def test_a_measured_filter_s_model_is_refitted_with_its_cutoff_held():
+    """``_gyro_filter_model``: from a ``J`` fit whose servo and rotor term are off, the
+    output-error refit to the identification records brings them back to the plant's,
+    and the cutoff stays where the gyro path put it: held at 12 Hz for a true 10 Hz, so a
+    refit that moved it would show.  The model the diagnosis hands over for such a filter
+    is this refit (``_output_error_estimate``)."""
+    from jaxgwo._diagnose import _gyro_filter_model, _time_pairs
+    from jaxgwo._diagnose_which import _Z_NEUTRAL, ModelSpec, simulate_model
+
+    train, _val, _eff = _lag_records(EffectSet())  # TRAIN flown through a 10 Hz filter
+    tt = _time_pairs(train, "lateral", IdentifySettings())
+    truth = np.asarray(PLANT.lateral, float)  # K, tau, M, omega_s, zeta_s
+    start = truth * np.array([1.0, 2.0, 0.8, 1.3, 1.4])
+    z = _Z_NEUTRAL.copy()
+    z[1] = math.log(12.0)
+    gm = _gyro_filter_model(ModelSpec(start), tt, np.r_[np.log(start), z])
+    assert gm is not None
+    assert gm.params["sensor_lag"]["cutoff_hz"] == pytest.approx(12.0, rel=1e-12)
+    spec = gm.spec(ModelSpec(start))
+    refit = np.asarray(spec.params, float)
+    # servo and rotor term (tau, M, omega_s, zeta_s) back from 20-100 % off to within 10 %
+    np.testing.assert_allclose(refit[1:], truth[1:], rtol=0.10)
+
+    def mse(s):
+        return np.mean(np.concatenate([y - simulate_model(s, t, u, o) for t, u, o, y in tt]) ** 2)
+
+    assert mse(spec) < 0.5 * mse(ModelSpec(start, {"sensor_lag": {"cutoff_hz": 12.0}}))
