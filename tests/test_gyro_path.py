@@ -255,6 +255,10 @@ def test_diagnosis_with_a_logged_attitude_names_the_gyro_filter(tmp_path):
     # the model handed over: servo and rotor term refitted to the time histories, the cutoff held
     assert top.detail.get("estimate_output_error") == 1.0
     assert "with the cutoff held at the gyro path's measurement" in d.summary()
+    # so is the top two's model, the cutoff and its bound the gyro path's
+    comb = d.combined
+    assert comb.effects[0] == "sensor_lag" and comb.detail.get("estimate_output_error") == 1.0
+    assert comb.params["sensor_lag"] == top.params["sensor_lag"] and comb.sigma["sensor_lag"] == top.sigma["sensor_lag"]
     assert "Gyro path against the logged attitude" in d.summary()
     assert "rotor_flapping" not in d.suggestion  # the two lags are told apart: no advice to separate them
     png = tmp_path / "d.png"

@@ -2678,13 +2678,16 @@ def diagnose(
                                          dependence_factor=dep, effect_seed=seed, held_z=held)  # fmt: skip
             spec = ModelSpec(np.exp(f.x[:5]) * sv, f.params)
             combined = score(base0, pair, f.params, f.sigma, spec, f.cost_J, base0.cost_J, k2)
-            # with a gyro filter, estimated as it is alone: the pair's output-error refit from its J fit
+            # with a gyro filter, estimated as it is alone: the pair's output-error refit from its J
+            # fit, the cutoff held where the gyro path measured it (_gyro_filter_model) with its bound
             td_base = specs.get((), nom_spec)
-            tdf = None if "sensor_lag" not in pair or held is not None else refit_linear_time_domain(
-                td_base, tt, pair, [_output_error_start(f.x[5:], f.x)])  # fmt: skip
+            hold = ("sensor_lag",) if held is not None else ()
+            tdf = None if "sensor_lag" not in pair else refit_linear_time_domain(
+                td_base, tt, pair, [_output_error_start(f.x[5:], f.x)], held=hold)  # fmt: skip
             if tdf is not None:
                 td_spec = tdf.spec(td_base)
-                sc_td = score(base0, pair, tdf.params, tdf.sigma, td_spec, math.nan, base0.cost_J_sim, k2)
+                sig_td = dict(tdf.sigma) | {e: dict(sc.sigma[e]) for sc in ranking[:2] for e in hold if e in sc.effects}
+                sc_td = score(base0, pair, tdf.params, sig_td, td_spec, math.nan, base0.cost_J_sim, k2)
                 combined = _output_error_estimate(combined, (sc_td, td_spec))
         else:
             # no joint refit across domains: the nonlinear or cross-coupling part is refitted
