@@ -2686,7 +2686,10 @@ def diagnose(
                 td_base, tt, pair, [_output_error_start(f.x[5:], f.x)], held=hold)  # fmt: skip
             if tdf is not None:
                 td_spec = tdf.spec(td_base)
-                sig_td = dict(tdf.sigma) | {e: dict(sc.sigma[e]) for sc in ranking[:2] for e in hold if e in sc.effects}
+                sig_td = dict(tdf.sigma)
+                if hold:  # the cutoff's bound is the gyro path's, as the filter alone quotes it
+                    sig_td["sensor_lag"] = dict(next(sc.sigma["sensor_lag"] for sc in ranking[:2]
+                                                     if "sensor_lag" in sc.effects))  # fmt: skip
                 sc_td = score(base0, pair, tdf.params, sig_td, td_spec, math.nan, base0.cost_J_sim, k2)
                 combined = _output_error_estimate(combined, (sc_td, td_spec))
         else:
