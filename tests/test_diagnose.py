@@ -1854,6 +1854,33 @@ def test_saturation_case_is_found():
     assert d.ranking[0].train_p < SETTINGS.alpha
 
 
+def test_an_amplitude_backed_nonlinearity_needs_the_held_out_records_only_not_to_contradict_it(monkeypatch):
+    """A saturation the amplitude test corroborates and whose output-error F-test passes at
+    ``alpha`` stands on two tests of the identification records (``_amplitude_backed``):
+    with every other route that spares it the held-out confirmation shut (no large error
+    cut, no ``J`` against the null refit) and that confirmation made impossible
+    (``z_min_time`` infinite), it still beats noise; without the rule it is refused."""
+    import jaxgwo._diagnose as D
+    from jaxgwo._diagnose import _amplitude_backed
+
+    assert _amplitude_backed(True, 1e-4, 1e-3) and not _amplitude_backed(True, 2e-3, 1e-3)
+    assert not _amplitude_backed(False, 1e-30, 1e-3)
+    train, val = _case("saturation", seed=1, limit=0.07)
+    settings = dataclasses.replace(SETTINGS, candidates=("saturation",), strong_error_ratio=math.inf,
+                                   z_min_time=math.inf)  # fmt: skip
+    monkeypatch.setattr(D, "_against_null_j", lambda p_mse, p_j_null, *a: (False, p_mse))
+    verdicts = {}
+    for rule in (True, False):
+        if not rule:
+            monkeypatch.setattr(D, "_amplitude_backed", lambda *a: False)
+        d = diagnose(train, val, "lateral", settings)
+        (sat,) = [c for c in d.ranking if c.effects == ("saturation",)]
+        assert sat.detail["amplitude_corroborates"] == 1.0 and sat.detail["p_output_error"] < settings.alpha
+        assert sat.z_score > settings.z_min and sat.gap_closed > 0.0  # the held-out records do not contradict it
+        verdicts[rule] = (sat.beats_noise, d.verdict)
+    assert verdicts == {True: (True, "saturation"), False: (False, "none")}
+
+
 def test_cross_coupling_sigma_counts_the_regressors_and_residuals_joint_correlation():
     """Monte Carlo reference for the gain's 1-sigma: a slow off-axis stick (0.4 Hz pilot
     corrections) and an independent slow residual (the same process, another key) over
