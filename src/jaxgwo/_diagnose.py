@@ -1540,8 +1540,10 @@ def _amplitude_backed(corroborated: bool, p_output_error: float, alpha: float) -
     3e-15, the amplitude test agreeing) z -1.11 with gap 0.26; 501/009 (R-50, 3.55: p 2e-5,
     z -1.24, gap 0.05); 501/032 (paper, p 4e-29, z 0.91, gap 0.06); each answered ``none``.
     Over the 288 cases of draws 499-505 the amplitude test flagged no ``none`` case and
-    3 of 161 linear-effect cases; on those three no nonlinear candidate that agreed with it
-    passed its F-test below p 0.07.  Set on those four stored draws (in sample)."""
+    3 of the 160 linear-effect cases; on those three no nonlinear candidate that agreed with
+    it passed its F-test below p 0.07.  Set on those four stored draws (in sample); on the
+    96 ``none`` and nonlinear cases of development seeds 9011-9015 it moved no verdict (the
+    amplitude test flagged none of their 24 ``none`` cases)."""
     return bool(corroborated and p_output_error < alpha)
 
 
