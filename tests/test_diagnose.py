@@ -1859,7 +1859,8 @@ def test_an_amplitude_backed_nonlinearity_needs_the_held_out_records_only_not_to
     ``alpha`` stands on two tests of the identification records (``_amplitude_backed``):
     with every other route that spares it the held-out confirmation shut (no large error
     cut, no ``J`` against the null refit) and that confirmation made impossible
-    (``z_min_time`` infinite), it still beats noise; without the rule it is refused."""
+    (``z_min_time`` infinite), it still beats noise, and the summary says the held-out
+    records did not confirm it; without the rule it is refused."""
     import jaxgwo._diagnose as D
     from jaxgwo._diagnose import _amplitude_backed
 
@@ -1878,6 +1879,9 @@ def test_an_amplitude_backed_nonlinearity_needs_the_held_out_records_only_not_to
         assert sat.detail["amplitude_corroborates"] == 1.0 and sat.detail["p_output_error"] < settings.alpha
         assert sat.z_score > settings.z_min and sat.gap_closed > 0.0  # the held-out records do not contradict it
         verdicts[rule] = (sat.beats_noise, d.verdict)
+        # the summary tells the user the held-out records did not confirm it, where they did not
+        assert sat.detail.get("passed_on_amplitude_backing", 0.0) == float(rule)
+        assert ("the held-out records do not confirm it" in d.summary()) == rule
     assert verdicts == {True: (True, "saturation"), False: (False, "none")}
 
 

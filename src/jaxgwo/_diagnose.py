@@ -707,6 +707,12 @@ class Diagnosis:
                     f"the held-out records do not confirm it (z {top.z_score:.1f}), as records that excite "
                     f"{mode['freq_hz']:.3g} Hz little cannot. Held-out records with a sweep through it would confirm it."
                 )
+            if top.detail.get("passed_on_amplitude_backing"):
+                lines.append(
+                    f"The identification records carry its evidence (output-error p {top.detail['p_output_error']:.2g}, "
+                    f"and the response changes with amplitude as it predicts); the held-out records do not confirm "
+                    f"it (z {top.z_score:.1f}). Held-out records at two stick amplitudes would confirm it."
+                )
             if top.detail.get("passed_at_structure_level"):
                 lines.append(
                     f"Its J evidence (p {top.train_p:.2g}) passes at the level read beside the airframe's pole pair "
@@ -2511,7 +2517,8 @@ def diagnose(
                 # backing and the output-error F-test at alpha itself (not alpha_amplitude),
                 # need the held-out records only not to contradict it either
                 # (_amplitude_backed)
-                strong = strong or j_strong or _amplitude_backed(corroborated, p_mse, settings.alpha)
+                by_amplitude = not (strong or j_strong) and _amplitude_backed(corroborated, p_mse, settings.alpha)
+                strong = strong or j_strong or by_amplitude
                 kw = dict(j_required=False, evidence=ev, time_domain=True, alpha=level, confirm=not strong,
                           gap_against_baseline=plain)
                 sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
@@ -2531,6 +2538,8 @@ def diagnose(
                        "amplitude_corroborates": float(corroborated), "effect_size_passes": float(sized),
                        "confirmed_against_null_refit_only": float(sc.beats_noise and not sc.gap_closed > 0.0),
                        "null_cost_J": j_nul, "p_J_null": p_j_null}  # fmt: skip
+                if by_amplitude and sc.beats_noise and not sc.z_score > settings.z_min_time:
+                    det["passed_on_amplitude_backing"] = 1.0  # the held-out records did not confirm it
                 if f.mode:  # the structure finding's pair as refitted beside the nonlinearity
                     det |= {f"pair_{q}": v for q, v in f.mode.items()}
                 return dataclasses.replace(sc, detail=det), spec
