@@ -669,6 +669,23 @@ def test_a_resonance_beside_a_held_pair_counts_only_inside_its_box():
     assert not any(_on_box_edge(dict(zip(keys, v))) for v in inside)
 
 
+def test_an_output_error_refit_stands_in_for_a_resonance_beside_a_pair_only_off_the_box_edges():
+    """Fresh seed 511's case_052, an R-50 `none`: the ``J`` fit beside the held pair sat on
+    the 0.2 pole-damping cap (4.75 Hz, zeros 0.248); its output-error refit stepped just
+    inside (4.45 Hz, pole damping 0.185) and had named it ``structural_mode``.  A refit
+    starting from a fit on an edge cannot stand in for it, nor one that stops on an edge;
+    from a fit inside, a refit inside can."""
+    from jaxgwo._diagnose import _on_box_edge, _refit_may_stand_in
+
+    keys = ("freq_hz", "zeta_p", "zeta_z")
+    j_fit, refit = dict(zip(keys, (4.753, 0.2, 0.2479))), dict(zip(keys, (4.451, 0.1852, 0.2371)))
+    assert _on_box_edge(j_fit) and not _on_box_edge(refit)
+    assert not _refit_may_stand_in(j_fit, refit)
+    inside, near = dict(zip(keys, (11.28, 0.041, 0.127))), dict(zip(keys, (11.4, 0.045, 0.13)))
+    assert _refit_may_stand_in(inside, near)
+    assert not _refit_may_stand_in(inside, dict(zip(keys, (8.49, 0.087, 1.5))))
+
+
 def _one_record_objective(t, u, k, names, fixed_modes=()):
     """``LinearOutputError`` on the single record ``u`` (its output stands in for the
     measured one: only ``outputs`` is read), gain ``k``, the linear effects ``names``."""
