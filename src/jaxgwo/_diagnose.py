@@ -709,8 +709,9 @@ class Diagnosis:
                 )
             if top.detail.get("passed_on_amplitude_backing"):
                 lines.append(
-                    f"The identification records carry its evidence (output-error p {top.detail['p_output_error']:.2g}, "
-                    f"and the response changes with amplitude as it predicts); the held-out records do not confirm "
+                    "The identification records carry its evidence (output-error p "
+                    f"{top.detail['p_output_error']:.2g}, and the response changes with amplitude as it predicts); "
+                    "the held-out records do not confirm "
                     f"it (z {top.z_score:.1f}). Held-out records at two stick amplitudes would confirm it."
                 )
             if top.detail.get("passed_at_structure_level"):
@@ -2381,8 +2382,9 @@ def diagnose(
             # the pair the resonance lies beside (refitted or held), which the model needs too
             det |= {"second_pole_pair": 1.0, "on_box_edge": float(edge)}
             det |= dict(zip(("pair_freq_hz", "pair_zeta_p", "pair_zeta_z"), map(float, fixed[0])))
-            if sc_td is not None and not _refit_may_stand_in(f.params["structural_mode"], sc_td.params["structural_mode"]):
-                det["td_on_box_edge"] = float(_on_box_edge(sc_td.params["structural_mode"]))
+            td_mode = None if sc_td is None else sc_td.params["structural_mode"]
+            if td_mode is not None and not _refit_may_stand_in(f.params["structural_mode"], td_mode):
+                det["td_on_box_edge"] = float(_on_box_edge(td_mode))
                 sc_td, td_spec, det["td_refused_on_box_edge"] = None, None, 1.0
             return own, sc, sc_td, td_spec, det
 
