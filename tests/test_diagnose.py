@@ -1748,7 +1748,7 @@ def test_an_extra_pole_pair_is_structure_not_an_effect(monkeypatch):
     from jaxgwo._diagnose import _structure_route
 
     assert d.paper_ranking[0].beats_noise
-    assert _structure_route(d.paper_ranking, {("structural_mode",): None}, float("inf")) is None
+    assert _structure_route(d.paper_ranking, {("structural_mode",): None}, float("inf"), 1e-3) is None
 
 
 def test_a_pair_pressed_against_the_vocabulary_floor_is_structure():
@@ -2445,21 +2445,63 @@ def test_structure_step_starts_only_from_a_frequency_domain_winner():
 
     fits = {("structural_mode",): object(), ("time_delay",): object(), ("sensor_lag",): object()}
     rest = [_scored("sensor_lag", 1.0)]
-    assert _structure_route([top("structural_mode"), *rest], fits, 1.0) == "mode"
-    assert _structure_route([top("structural_mode", zeta_z=0.8), *rest], fits, 1.0) is None  # a resonance, not structure
+    assert _structure_route([top("structural_mode"), *rest], fits, 1.0, 1e-3) == "mode"
+    # a resonance, not structure
+    assert _structure_route([top("structural_mode", zeta_z=0.8), *rest], fits, 1.0, 1e-3) is None
     # pressed against the vocabulary's 3 Hz floor: the structure step refits it in its wider box
-    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, 1.0) == "mode"
-    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.1), *rest], fits, 1.0) is None
-    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, math.inf) is None  # off
-    assert _structure_route([top("time_delay"), *rest], fits, 1.0) == "behind_delay"
+    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, 1.0, 1e-3) == "mode"
+    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.1), *rest], fits, 1.0, 1e-3) is None
+    assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, math.inf, 1e-3) is None
+    assert _structure_route([top("time_delay"), *rest], fits, 1.0, 1e-3) == "behind_delay"
     # a winner by the time-domain path won with its output-error refit, not the J fit the step extends
-    assert _structure_route([top("structural_mode", td_path=1.0), *rest], fits, 1.0) is None
-    assert _structure_route([top("time_delay", td_path=1.0), *rest], fits, 1.0) is None
+    assert _structure_route([top("structural_mode", td_path=1.0), *rest], fits, 1.0, 1e-3) is None
+    assert _structure_route([top("time_delay", td_path=1.0), *rest], fits, 1.0, 1e-3) is None
     # nothing beats noise, another effect on top, no J fit, no ranking at all
-    assert _structure_route([top("time_delay", ok=False), *rest], fits, 1.0) is None
-    assert _structure_route([_scored("backlash", 3.0), top("time_delay")], fits, 1.0) is None
-    assert _structure_route([top("time_delay")], {}, 1.0) is None
-    assert _structure_route([], fits, 1.0) is None
+    assert _structure_route([top("time_delay", ok=False), *rest], fits, 1.0, 1e-3) is None
+    assert _structure_route([_scored("backlash", 3.0), top("time_delay")], fits, 1.0, 1e-3) is None
+    assert _structure_route([top("time_delay")], {}, 1.0, 1e-3) is None
+    assert _structure_route([], fits, 1.0, 1e-3) is None
+
+
+def test_an_airframe_pair_below_a_nonlinearity_starts_the_structure_step():
+    """An R-50 saturation on the paper model alone (seed-543 case_045): the saturation on
+    top at J 185, a 3.2 Hz pair with real zeros below it at J 18.4.  The pair is what J
+    sees; the step takes it, and the saturation is ranked again on top of it."""
+    from jaxgwo._diagnose import _pair_behind_nonlinearity, _structure_route
+
+    def cand(effect, score, cost_j, ok=True, p=6e-8, delta_bic=-30.0, **mode):
+        c = dataclasses.replace(_scored(effect, score, ok), cost_J=cost_j, detail={}, train_p=p, delta_bic=delta_bic)
+        if effect == "structural_mode":
+            c = dataclasses.replace(c, params={effect: {"freq_hz": 3.15, "zeta_p": 0.5, "zeta_z": 1.3} | mode})
+        return c
+
+    fits = {("structural_mode",): object()}
+    sat, pair = cand("saturation", 1.44, 185.0), cand("structural_mode", 1.22, 18.4)
+    lag = cand("rotor_flapping", 1.0, 30.0)
+    assert _pair_behind_nonlinearity([sat, lag, pair], fits, 1.0, 1e-3) is pair
+    assert _structure_route([sat, lag, pair], fits, 1.0, 1e-3) == "behind_nonlinearity"
+    for effect in ("rate_limit", "backlash"):
+        assert _structure_route([cand(effect, 1.44, 185.0), pair], fits, 1.0, 1e-3) == "behind_nonlinearity"
+    # a resonance (complex zeros) is no airframe pair: a paper rate limit's pair (seed-543 case_029)
+    assert _structure_route([sat, cand("structural_mode", 1.2, 5.0, zeta_z=0.03)], fits, 1.0, 1e-3) is None
+    # below the vocabulary's 3 Hz floor it is the airframe's, whatever its zeros
+    assert _structure_route([sat, cand("structural_mode", 1.2, 5.0, freq_hz=2.0, zeta_z=0.3)], fits, 1.0, 1e-3) \
+        == "behind_nonlinearity"
+    # a pair that fits J worse than the nonlinearity is what the pair imitated (_nonlinearity_over_pair)
+    assert _structure_route([sat, cand("structural_mode", 1.2, 190.0)], fits, 1.0, 1e-3) is None
+    # J must find the pair (F-test at alpha and BIC), which the step extends; the held-out
+    # records, the nonlinearity's, need not (seed-157 case_065: J p 8e-7, held-out z -0.09)
+    assert _structure_route([sat, cand("structural_mode", -9.0, 20.9, ok=False, p=8e-7)], fits, 1.0, 1e-3) \
+        == "behind_nonlinearity"
+    assert _structure_route([sat, cand("structural_mode", 1.2, 18.4, p=2e-3)], fits, 1.0, 1e-3) is None
+    assert _structure_route([sat, cand("structural_mode", 1.2, 18.4, delta_bic=1.0)], fits, 1.0, 1e-3) is None
+    on_td = dataclasses.replace(pair, detail={"time_domain_path": 1.0})
+    assert _structure_route([sat, on_td], fits, 1.0, 1e-3) is None
+    assert _structure_route([sat, pair], {}, 1.0, 1e-3) is None
+    # the nonlinearity must be on top and beat noise; the step off (inf) takes nothing
+    assert _structure_route([cand("saturation", -9.0, 185.0, ok=False), pair], fits, 1.0, 1e-3) is None
+    assert _structure_route([cand("time_delay", 1.44, 185.0), pair], fits, 1.0, 1e-3) is None
+    assert _structure_route([sat, pair], fits, math.inf, 1e-3) is None
 
 
 def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing_fit_for_it():
