@@ -2641,7 +2641,6 @@ def diagnose(
         structure = ranking[0] if route == "mode" else \
             _pair_behind_nonlinearity(ranking, fits, settings.structure_zeta_z, settings.alpha)
         others, paper_ranking = tuple(c for c in ranking if c is not structure), ranking
-        behind_nl = {"found_behind_nonlinearity": 1.0} if route == "behind_nonlinearity" else {}
         f_sm = fits[("structural_mode",)]
         sm_spec = specs[("structural_mode",)]
         # The vocabulary's box caps the damping (pole 0.5, zeros 1.5) where a resonance lies;
@@ -2703,8 +2702,8 @@ def diagnose(
             over = _nonlinearity_over_pair(ranking, structure)
             if over[0] is not ranking[0]:
                 ranking, structure, paper_ranking = over, None, ()
-        if structure is not None and behind_nl:
-            structure = dataclasses.replace(structure, detail={**structure.detail, **behind_nl})
+        if structure is not None and route == "behind_nonlinearity":
+            structure = dataclasses.replace(structure, detail={**structure.detail, "found_behind_nonlinearity": 1.0})
         obj_s, sv_s, prior = prep.objective, sign_vec, None
     elif route == "behind_delay":
         # A long delay takes the top place from the extra pole pair an airframe such as the
