@@ -2040,6 +2040,9 @@ def test_unconfirmed_candidates_are_named_beside_a_none_verdict_only():
     assert _unconfirmed(ranking, "none", 1e-3) == ("rate_limit", "structural_mode")
     assert _unconfirmed(ranking, "none", 0.05) == ("cross_coupling", "rate_limit", "structural_mode", "saturation")
     assert _unconfirmed(ranking, "rate_limit", 1e-3) == ()
+    # a broad pair refused as no resonance (_broad_pairs_refused) is no lead either
+    broad = dataclasses.replace(ranking[3], detail={"broad_pair_no_resonance": 1.0})
+    assert _unconfirmed((*ranking[:3], broad, ranking[4]), "none", 1e-3) == ("rate_limit",)
 
 
 def _check_json_report_schema(d):
@@ -2438,9 +2441,10 @@ def test_the_null_refits_j_counts_as_evidence_only_with_an_effect_size(p_mse, p_
 def test_structure_step_starts_only_from_a_frequency_domain_winner():
     from jaxgwo._diagnose import _structure_route
 
-    def top(effect, ok=True, td_path=0.0, zeta_z=2.0, freq_hz=9.0):
+    def top(effect, ok=True, td_path=0.0, zeta_z=2.0, freq_hz=9.0, zeta_p=0.05):
         c = _scored(effect, 3.0, ok)
-        params = {effect: {"freq_hz": freq_hz, "zeta_z": zeta_z}} if effect == "structural_mode" else c.params
+        params = {effect: {"freq_hz": freq_hz, "zeta_p": zeta_p, "zeta_z": zeta_z}} if effect == "structural_mode" \
+            else c.params
         return dataclasses.replace(c, params=params, detail={"time_domain_path": td_path})
 
     fits = {("structural_mode",): object(), ("time_delay",): object(), ("sensor_lag",): object()}
@@ -2452,6 +2456,12 @@ def test_structure_step_starts_only_from_a_frequency_domain_winner():
     assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, 1.0, 1e-3) == "mode"
     assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.1), *rest], fits, 1.0, 1e-3) is None
     assert _structure_route([top("structural_mode", zeta_z=0.8, freq_hz=3.0), *rest], fits, math.inf, 1e-3) is None
+    # a broad pair is no resonance of the vocabulary: refitted there too (seed-2005 case_011, an
+    # R-50 backlash under a 3.1 Hz pair at pole damping 0.37, zeros 0.99)
+    assert _structure_route([top("structural_mode", zeta_z=0.99, freq_hz=3.1, zeta_p=0.37), *rest], fits, 1.0,
+                            1e-3) == "mode"  # fmt: skip
+    assert _structure_route([top("structural_mode", zeta_z=0.8, zeta_p=0.2), *rest], fits, 1.0, 1e-3) is None
+    assert _structure_route([top("structural_mode", zeta_z=0.8, zeta_p=0.37), *rest], fits, math.inf, 1e-3) is None
     assert _structure_route([top("time_delay"), *rest], fits, 1.0, 1e-3) == "behind_delay"
     # a winner by the time-domain path won with its output-error refit, not the J fit the step extends
     assert _structure_route([top("structural_mode", td_path=1.0), *rest], fits, 1.0, 1e-3) is None
@@ -2502,6 +2512,35 @@ def test_an_airframe_pair_below_a_nonlinearity_starts_the_structure_step():
     assert _structure_route([cand("saturation", -9.0, 185.0, ok=False), pair], fits, 1.0, 1e-3) is None
     assert _structure_route([cand("time_delay", 1.44, 185.0), pair], fits, 1.0, 1e-3) is None
     assert _structure_route([sat, pair], fits, math.inf, 1e-3) is None
+
+
+def test_a_broad_pair_does_not_beat_noise_as_a_resonance():
+    """Seed-551 case_061, a paper flapping lag of 33.5 ms: a 6.55 Hz pair at pole damping
+    0.214 (zeros 0.51) ranked first ahead of the lag; the vocabulary's resonances fit pole
+    damping 0.19 or less.  The broad pair goes among the failing candidates and the lag
+    becomes the verdict; a lightly damped resonance, and the candidates that beat noise,
+    keep their places."""
+    from jaxgwo._diagnose import _MODE_AGREEMENT_ZETA_P, _broad_pairs_refused
+
+    def mode(score, zeta_p, ok=True):
+        c = _scored("structural_mode", score, ok)
+        return dataclasses.replace(c, params={"structural_mode": {"freq_hz": 6.55, "zeta_p": zeta_p, "zeta_z": 0.51}},
+                                   detail={})  # fmt: skip
+
+    broad, lag, delay, cc = mode(2.6, 0.214), _scored("rotor_flapping", 2.4), _scored("time_delay", 2.3), \
+        _scored("cross_coupling", -2.0, False)
+    out = _broad_pairs_refused([broad, lag, delay, cc])
+    assert [c.effects[0] for c in out] == ["rotor_flapping", "time_delay", "cross_coupling", "structural_mode"]
+    assert [c.beats_noise for c in out] == [True, True, False, False]
+    assert out[-1].detail == {"broad_pair_no_resonance": 1.0} and out[-1].score == pytest.approx(2.6 - 10.0)
+    # at the threshold and below it the pair is a resonance and stays where it was
+    for zeta_p in (_MODE_AGREEMENT_ZETA_P, 0.19, 0.03):
+        ranking = (mode(2.6, zeta_p), lag, delay, cc)
+        assert _broad_pairs_refused(ranking) == ranking
+    # one that did not beat noise anyway is left alone, as is a ranking without a pair
+    failing = (lag, delay, cc, mode(-3.0, 0.5, ok=False))
+    assert _broad_pairs_refused(failing) == failing
+    assert _broad_pairs_refused([]) == ()
 
 
 def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing_fit_for_it():
