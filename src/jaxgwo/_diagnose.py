@@ -1366,6 +1366,18 @@ def _ahead(ranking: tuple[CandidateScore, ...], chosen: Sequence[CandidateScore]
     return (*moved, *(c for c in ranking if not any(c is x for x in chosen)))
 
 
+def _demoted(ranking: tuple[CandidateScore, ...], chosen: Sequence[CandidateScore],
+             mark: str) -> tuple[CandidateScore, ...]:
+    """``ranking`` with ``chosen`` (candidates of it) no longer beating noise: each one's
+    score less 10 and ``detail[mark]`` set, placed among the failing ones by score; the
+    passing ones keep their order (lags moved over a delay stay so)."""
+    out = [dataclasses.replace(c, beats_noise=False, score=c.score - 10.0, detail=dict(c.detail) | {mark: 1.0})
+           for c in chosen]  # fmt: skip
+    rest = [c for c in ranking if not any(c is x for x in chosen)]
+    failing = sorted([x for x in rest if not x.beats_noise] + out, key=_best_first)
+    return (*(x for x in rest if x.beats_noise), *failing)
+
+
 def _nonlinearity_over_pair(ranking: Sequence[CandidateScore], pair: CandidateScore) -> tuple[CandidateScore, ...]:
     """``ranking`` (best first, on the paper model) with the nonlinearities that beat noise
     and fit ``J`` below ``pair`` moved to its head, lowest ``J`` first (each one's
@@ -1441,13 +1453,7 @@ def _gyro_path_order(ranking: Sequence[CandidateScore], gyro: GyroPath, alpha: f
             return ranking
         return _ahead(ranking, [c], lambda _c: {"ranked_by_gyro_path": 1.0})
     if c.beats_noise and gyro.refutes(c.params["sensor_lag"]["cutoff_hz"], alpha):
-        out = dataclasses.replace(c, beats_noise=False, score=c.score - 10.0,
-                                  detail=dict(c.detail) | {"refuted_by_gyro_path": 1.0})  # fmt: skip
-        rest = (*ranking[:i], *ranking[i + 1 :])
-        # the passing ones keep their order (lags moved over a delay stay so), the demoted
-        # lag goes among the failing ones by its score
-        failing = sorted([x for x in rest if not x.beats_noise] + [out], key=_best_first)
-        return (*(x for x in rest if x.beats_noise), *failing)
+        return _demoted(ranking, [c], "refuted_by_gyro_path")
     return ranking
 
 
@@ -1471,13 +1477,7 @@ def _broad_pairs_refused(ranking: Sequence[CandidateScore]) -> tuple[CandidateSc
     ranking = tuple(ranking)
     broad = [c for c in ranking if c.beats_noise and c.effects == ("structural_mode",)
              and _broad_pair(c.params["structural_mode"])]
-    if not broad:
-        return ranking
-    out = [dataclasses.replace(c, beats_noise=False, score=c.score - 10.0,
-                               detail=dict(c.detail) | {"broad_pair_no_resonance": 1.0}) for c in broad]  # fmt: skip
-    rest = [c for c in ranking if not any(c is b for b in broad)]
-    failing = sorted([x for x in rest if not x.beats_noise] + out, key=_best_first)
-    return (*(x for x in rest if x.beats_noise), *failing)
+    return _demoted(ranking, broad, "broad_pair_no_resonance") if broad else ranking
 
 
 def _time_domain_refit(null, null_spec, val_predicted, val_measured, base_r2: float) -> TimeDomainRefit:
