@@ -2194,6 +2194,33 @@ def test_pair_free_nonlinearity_must_not_fit_j_worse_than_its_null(cut, corrobor
         assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated, j_null, j_null)
 
 
+@pytest.mark.parametrize("held, free, n_eff, refit", [
+    (2.135e-4, 1.6075e-4, 710.98, True),  # R-50 rate limit 557/053: held-out R^2 0.9605 -> 0.9819
+    (1.421e-4, 1.1489e-4, 540.98, True),  # R-50 backlash 545/018: 0.9757 -> 0.9791
+    (2.045e-4, 2.013e-4, 700.0, False),   # R-50 saturation 557/054: a 1.6 % cut
+    (1.0e-4, 1.0e-4, 700.0, False),       # no cut
+    (1.0e-4, 1.1e-4, 700.0, False),       # the refit fits worse
+])  # fmt: skip
+def test_a_refitted_pair_stands_where_it_cuts_the_identification_error(held, free, n_eff, refit):
+    """A nonlinearity beating noise on a structure finding both with the pair held and
+    refitted beside it is scored as the refitted fit where the pair's three parameters cut
+    the held fit's output error at ``alpha`` (the numbers of the R-50 cases it was set on,
+    re-simulated from their seeds); where only one fit beats noise, that one stands.  The
+    p is the F-test's on the effective samples less the fit's eight parameters (scipy's F
+    distribution as the reference)."""
+    import scipy.stats
+
+    from jaxgwo._diagnose import _pair_refit_stands, _refitted_pair_p
+
+    p = _refitted_pair_p(held, free, n_eff)
+    f = (held - free) / 3 / (free / (n_eff - 8))
+    assert p == pytest.approx(scipy.stats.f.sf(f, 3, n_eff - 8) if held > free else 1.0, rel=1e-12)
+    alpha = SETTINGS.alpha
+    assert _pair_refit_stands(True, True, p, alpha) is refit
+    assert _pair_refit_stands(False, True, p, alpha)  # the pair-held fit fails: the refit may stand
+    assert not _pair_refit_stands(True, False, p, alpha) and not _pair_refit_stands(False, False, p, alpha)
+
+
 @pytest.mark.parametrize("kw, what", [({"min_error_ratio": 0.9}, "min_error_ratio must be a number >= 1"),
                                       ({"strong_error_ratio": 0.5}, "strong_error_ratio must be a number >= 1"),
                                       ({"pair_free_error_ratio": 0.9}, "pair_free_error_ratio must be a number >= 1"),
