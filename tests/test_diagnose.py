@@ -2171,7 +2171,7 @@ def test_pair_free_effect_size_on_the_stored_r50_cases(cut, corroborated, passes
 
     assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated, 1.0, 1.0) is passes
     if not passes:
-        assert _effect_size_passes(cut, SETTINGS.min_error_ratio, corroborated, -1.0)
+        assert _effect_size_passes(cut, SETTINGS.min_error_ratio, corroborated, -1.0, True)
 
 
 @pytest.mark.parametrize("cut, corroborated, j, j_null, passes", [
@@ -2694,18 +2694,53 @@ def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
         assert _takes_time_domain_path(j_none, td(effect, **there), j_found=False, alpha=1e-3, m_eff=40.0)
 
 
-@pytest.mark.parametrize("cut, corroborated, dbic_val, passes", [
-    (1.06, False, 5.0, True),  # the identification error cut alone is effect size enough
-    (1.039, False, -442.0, True),  # seed-61 case_071: sweeps seldom reach the limit, VAL often
-    (1.03, False, 3.2, False),  # a cut under x1.05 that the held-out BIC does not back
-    (1.03, False, 0.0, False),  # no held-out gain is no held-out effect
-    (1.01, True, 20.0, True),  # the amplitude test corroborates (its own, weaker level)
+@pytest.mark.parametrize("cut, corroborated, dbic_val, acts, passes", [
+    (1.06, False, 5.0, True, True),  # the identification error cut alone is effect size enough
+    (1.06, False, 5.0, False, True),  # ... whether or not the held-out records reach the limit
+    (1.039, False, -442.0, True, True),  # seed-61 case_071: sweeps seldom reach the limit, VAL often
+    (1.03, False, 3.2, True, False),  # a cut under x1.05 that the held-out BIC does not back
+    (1.03, False, 0.0, True, False),  # no held-out gain is no held-out effect
+    (1.01, True, 20.0, False, True),  # the amplitude test corroborates (its own, weaker level)
+    (1.028, False, -11.0, False, False),  # fresh seed 577's case_022, no effect: a limit above VAL's input
+    (1.031, False, -510.7, True, True),  # fresh seed 565's case_068, a paper rate limit VAL reaches
 ])  # fmt: skip
-def test_a_small_nonlinear_error_cut_counts_only_with_an_effect_size_from_elsewhere(cut, corroborated, dbic_val,
+def test_a_small_nonlinear_error_cut_counts_only_with_an_effect_size_from_elsewhere(cut, corroborated, dbic_val, acts,
                                                                                     passes):  # fmt: skip
     from jaxgwo._diagnose import DiagnoseSettings, _effect_size_passes
 
-    assert _effect_size_passes(cut, DiagnoseSettings().min_error_ratio, corroborated, dbic_val) is passes
+    assert _effect_size_passes(cut, DiagnoseSettings().min_error_ratio, corroborated, dbic_val, acts) is passes
+
+
+def test_a_servo_nonlinearity_acts_only_where_the_servo_reaches_it():
+    """``nonlinearity_acts`` against the linear servo's own peak position and rate
+    (scipy.signal.lsim of the servo alone, an independent reference): a saturation or
+    rate limit a fifth beyond that peak does not act, one a fifth below it does, a
+    backlash acts at any width, and a model without a servo nonlinearity never does."""
+    import scipy.signal
+
+    from jaxgwo._diagnose_which import ModelSpec, nonlinearity_acts, simulate_model
+
+    k, tau, m, ws, zs = (float(v) for v in MODEL.to_array())
+    t = np.arange(0.0, 6.0, 0.01)
+    u = 0.2 * np.sin(2 * np.pi * 1.3 * t) * (t < 4.0)
+    records = [(t, u, np.zeros_like(u), np.zeros_like(u))]
+    _t, pos, _x = scipy.signal.lsim(([ws * ws], [1.0, 2 * zs * ws, ws * ws]), u, t)
+    peak, rate = np.max(np.abs(pos)), np.max(np.abs(np.diff(pos))) / 0.01
+    assert 0.15 < peak < 0.3 and rate > 1.0
+
+    def acts(effects):
+        spec = ModelSpec(np.asarray(MODEL.to_array(), float), effects)
+        return nonlinearity_acts(spec, records, [simulate_model(spec, t, u)])
+
+    assert not acts({"saturation": {"limit": 1.2 * peak}})
+    assert acts({"saturation": {"limit": 0.8 * peak}})
+    assert not acts({"rate_limit": {"rate": 1.2 * rate}})
+    assert acts({"rate_limit": {"rate": 0.8 * rate}})
+    assert acts({"backlash": {"width": 1e-3}})
+    assert not acts({"time_delay": {"delay_s": 0.02}})
+    # with a delay and a gyro filter beside it, the comparison is still like for like
+    assert not acts({"saturation": {"limit": 1.2 * peak}, "time_delay": {"delay_s": 0.02},
+                     "sensor_lag": {"cutoff_hz": 20.0}})  # fmt: skip
 
 
 def test_a_gyro_filter_is_estimated_by_its_output_error_refit_and_decided_by_j():

@@ -56,6 +56,7 @@ closed on the held-out records plus a small bonus for agreeing with the step-2 s
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -80,6 +81,7 @@ __all__ = [
     "AugmentedCifer",
     "ModelSpec",
     "simulate_model",
+    "nonlinearity_acts",
     "candidate_key",
     "fit_linear_candidates",
     "fit_cross_coupling",
@@ -867,6 +869,30 @@ def simulate_model(spec: ModelSpec, t: np.ndarray, u: np.ndarray, u_off: np.ndar
         else:
             y = simulate_transfer_function(jnp.asarray(num), jnp.asarray(den), tj, jnp.asarray(u))
     return spec.gain_scale * np.asarray(y)
+
+
+_NO_NONLINEARITY = {"rate_limit": {"rate": math.inf}, "saturation": {"limit": math.inf}, "backlash": {"width": 0.0}}
+"""Each servo nonlinearity's value where it does not act (no rate limit, end stop or dead band)."""
+
+
+def nonlinearity_acts(spec: ModelSpec, records, predicted: Sequence[np.ndarray]) -> bool:
+    """Whether ``spec``'s servo nonlinearities act on ``records`` ``(t, u, u_off, y)``: its
+    simulation ``predicted`` of them differs from that of the same model with each
+    nonlinearity set where it does not act (:data:`_NO_NONLINEARITY`).  Both run the same
+    nonlinear servo (:func:`_nonlinear_servo`), whose stops change nothing, bit for bit,
+    where the servo never approaches them: a saturation above the largest swashplate
+    position or a rate limit above its fastest rate does not act.  A backlash of any width
+    acts.  ``False`` for a model without a servo nonlinearity."""
+    eff = dict(spec.effects)
+    names = [n for n in NONLINEAR if n in eff]
+    if not names:
+        return False
+    off = dataclasses.replace(spec, effects=eff | {n: _NO_NONLINEARITY[n] for n in names})
+    for (t, u, o, _y), p in zip(records, predicted, strict=True):
+        q = simulate_model(off, t, u, o)
+        if np.max(np.abs(np.asarray(p, float) - q), initial=0.0) > 1e-12 * max(np.max(np.abs(q), initial=0.0), 1e-300):
+            return True
+    return False
 
 
 # ----------------------------------------------------------------------------- cross coupling
