@@ -188,9 +188,10 @@ class DiagnoseSettings:
     cut the null refit's identification output error by the factor ``min_error_ratio``
     (an effect size: without it a mild clipping fits gust-induced error significantly),
     unless the held-out records' BIC improves over the null refit's where the nonlinearity
-    acts on them (their effect size, :func:`_effect_size_passes`) or the amplitude test of step 2 independently shows the
-    change with amplitude that this nonlinearity predicts; with the amplitude test's
-    backing its output-error F-test need only pass at ``alpha_amplitude``.  One that cuts
+    acts on them (their effect size, :func:`_effect_size_passes`) or the amplitude test of
+    step 2 independently shows the change with amplitude that this nonlinearity predicts;
+    with the amplitude test's backing its output-error F-test need only pass at
+    ``alpha_amplitude``.  One that cuts
     that error by ``strong_error_ratio`` or more needs
     the held-out records only not to contradict it (``z_min``, as a linear candidate):
     held-out multisteps may reach a limit seldom (set on seed 2's nonlinear cases, whose
