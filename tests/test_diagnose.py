@@ -2703,13 +2703,9 @@ def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
     (1.01, True, 20.0, False, True),  # the amplitude test corroborates (its own, weaker level)
     (1.028, False, -11.0, False, False),  # fresh seed 577's case_022, no effect: a limit above VAL's input
     (1.031, False, -510.7, True, True),  # fresh seed 565's case_068, a paper rate limit VAL reaches
-    (1.020, False, -7.5, False, False),  # fresh seed 581's case_047, an R-50 none: a backlash on a structure finding
-    (1.028, True, -378.1, False, True),  # 565/039, an R-50 rate limit on one: the amplitude test
 ])  # fmt: skip
 def test_a_small_nonlinear_error_cut_counts_only_with_an_effect_size_from_elsewhere(cut, corroborated, dbic_val, acts,
                                                                                     passes):  # fmt: skip
-    """``acts``: whether the held-out BIC may count, which it may only where the
-    nonlinearity acts on those records and no structure finding's pair stands beside it."""
     from jaxgwo._diagnose import DiagnoseSettings, _effect_size_passes
 
     assert _effect_size_passes(cut, DiagnoseSettings().min_error_ratio, corroborated, dbic_val, acts) is passes

@@ -1573,7 +1573,7 @@ def _takes_time_domain_path(sc: CandidateScore, sc_td: CandidateScore | None, j_
 
 
 def _effect_size_passes(error_cut: float, min_error_ratio: float, corroborated: bool, delta_bic_val: float,
-                        held_out_bic_counts: bool) -> bool:
+                        acts_on_held_out: bool) -> bool:
     """Whether a nonlinear candidate's output-error F-test counts as evidence: it is backed by
     an effect size.  Gusts dominate the identification output error, so a mild clipping fits
     gust-induced error significantly; the F-test counts only where the candidate cuts the
@@ -1588,10 +1588,9 @@ def _effect_size_passes(error_cut: float, min_error_ratio: float, corroborated: 
     below x1.05 (26, one a true rate limit the held-out records do not show: case_045)
     raised the held-out BIC (+3 to +106), so none of them passes.
 
-    The held-out BIC counts (``held_out_bic_counts``) only where the nonlinearity acts on
-    those records (:func:`jaxgwo._diagnose_which.nonlinearity_acts`) and not on top of a
-    structure finding (below); where it does not act, their gain is the refitted servo's
-    and rotor's alone, which a
+    The held-out BIC shows the effect's size only where the nonlinearity acts on those
+    records (``acts_on_held_out``, :func:`jaxgwo._diagnose_which.nonlinearity_acts`);
+    where it does not, their gain is the refitted servo's and rotor's alone, which a
     clipping of gust-induced error on the identification records can buy as well.  Fresh
     seed 577's case_022, a paper plant without an effect, was called ``saturation`` so:
     a limit of 0.285 fitted to the peaks of the larger sweep (cut x1.028, p 4e-5, the
@@ -1602,19 +1601,8 @@ def _effect_size_passes(error_cut: float, min_error_ratio: float, corroborated: 
     of R-50 delays, ranked below the delay, 565/055, 569/044, 569/065, 573/071) and no
     longer beat noise, and the six that act stand (rate limits 565/068 and 569/049,
     backlashes 573/031, 575/029 and 577/025, the saturation of 573/058); no other verdict
-    moved.  Set there, in sample.
-
-    On a structure finding the fit with the pair held does not count the held-out BIC
-    either, as the pair-free fit does not (:func:`_pair_free_effect_size`): beside the pair
-    a nonlinearity takes up the airframe's model-form error on the held-out records too.
-    Fresh seed 581's case_047, an R-50 without an effect, was called ``backlash`` so (width
-    0.0031, cut x1.020, p 4e-4, held-out z 1.51).  Of the 21 nonlinear candidates that beat
-    noise with the pair held in the stored diagnoses of 565-581, all on R-50 plants, 19 did
-    so on the amplitude test's backing, and the held-out BIC alone passed that false alarm
-    and a backlash ranked below a right ``sensor_lag`` (581/040); the 33 of session 75's
-    re-simulated R-50 nonlinear cases passed on the amplitude test (30) or a cut of x1.05
-    (3).  Set there, in sample."""
-    return corroborated or error_cut >= min_error_ratio or (delta_bic_val < 0.0 and held_out_bic_counts)
+    moved.  Set there, in sample."""
+    return corroborated or error_cut >= min_error_ratio or (delta_bic_val < 0.0 and acts_on_held_out)
 
 
 def _amplitude_backed(corroborated: bool, p_output_error: float, alpha: float) -> bool:
@@ -2699,12 +2687,9 @@ def diagnose(
                     sized = _pair_free_effect_size(nul.train_mse / f.train_mse, settings.pair_free_error_ratio,
                                                    corroborated, j_f, j_nul)  # fmt: skip
                 else:
-                    # the held-out BIC shows the effect's size where the nonlinearity acts on
-                    # those records, and not beside a structure finding's pair (base.linear)
                     acts = nonlinearity_acts(spec, tv, sc.predicted)
                     sized = j_strong or _effect_size_passes(nul.train_mse / f.train_mse, settings.min_error_ratio,
-                                                            corroborated, sc.delta_bic_val,
-                                                            acts and not base.linear)  # fmt: skip
+                                                            corroborated, sc.delta_bic_val, acts)  # fmt: skip
                 if not sized:  # significant perhaps, but too small an effect to trust
                     sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
                                extra_p=1.0, predicted=sc.predicted, **kw)  # fmt: skip
