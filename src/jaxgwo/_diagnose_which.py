@@ -824,14 +824,20 @@ def _rotor_den(tau, m, tau_f):
     return np.array([1.0, 1.0 / tau, m])
 
 
+_NO_NONLINEARITY = {"rate_limit": {"rate": math.inf}, "saturation": {"limit": math.inf}, "backlash": {"width": 0.0}}
+"""Each servo nonlinearity's value where it does not act (no rate limit, end stop or dead band)."""
+
+
 def _servo_params(spec: ModelSpec, effects) -> _ServoParams:
+    """The servo of ``spec`` with the nonlinearities of ``effects``; one absent is set where
+    it does not act (:data:`_NO_NONLINEARITY`)."""
     _k, _tau, _m, ws, zs = (float(v) for v in spec.params)
-    return _ServoParams(
-        jnp.asarray(ws), jnp.asarray(zs),
-        jnp.asarray(effects.get("rate_limit", {}).get("rate", np.inf)),
-        jnp.asarray(effects.get("saturation", {}).get("limit", np.inf)),
-        jnp.asarray(effects.get("backlash", {}).get("width", 0.0)),
-    )  # fmt: skip
+
+    def value(name: str, param: str) -> jnp.ndarray:
+        return jnp.asarray(effects.get(name, {}).get(param, _NO_NONLINEARITY[name][param]))
+
+    return _ServoParams(jnp.asarray(ws), jnp.asarray(zs), value("rate_limit", "rate"), value("saturation", "limit"),
+                        value("backlash", "width"))  # fmt: skip
 
 
 def simulate_model(spec: ModelSpec, t: np.ndarray, u: np.ndarray, u_off: np.ndarray | None = None) -> np.ndarray:
@@ -869,10 +875,6 @@ def simulate_model(spec: ModelSpec, t: np.ndarray, u: np.ndarray, u_off: np.ndar
         else:
             y = simulate_transfer_function(jnp.asarray(num), jnp.asarray(den), tj, jnp.asarray(u))
     return spec.gain_scale * np.asarray(y)
-
-
-_NO_NONLINEARITY = {"rate_limit": {"rate": math.inf}, "saturation": {"limit": math.inf}, "backlash": {"width": 0.0}}
-"""Each servo nonlinearity's value where it does not act (no rate limit, end stop or dead band)."""
 
 
 def nonlinearity_acts(spec: ModelSpec, records, predicted: Sequence[np.ndarray]) -> bool:
