@@ -2711,6 +2711,28 @@ def test_a_small_nonlinear_error_cut_counts_only_with_an_effect_size_from_elsewh
     assert _effect_size_passes(cut, DiagnoseSettings().min_error_ratio, corroborated, dbic_val, acts) is passes
 
 
+@pytest.mark.parametrize("corroborated, by_amplitude, z_val, sizes", [
+    (True, False, -0.5, True),  # confirmed otherwise (a cut, J): the amplitude test is its size
+    (True, True, 2.3, True),  # backed, but the held-out records confirmed it: backing not needed
+    (True, True, -0.07, False),  # fresh seed 589's case_045, no effect: backing and size in one test
+    (True, True, 1.0, False),  # z at z_min_time is not a confirmation
+    (True, True, float("nan"), False),  # nor is a z the held-out records could not give
+    (False, False, 3.0, False),  # no agreement, no size from it
+])  # fmt: skip
+def test_the_amplitude_test_counts_once_backing_or_effect_size(corroborated, by_amplitude, z_val, sizes):
+    from jaxgwo._diagnose import DiagnoseSettings, _amplitude_sizes, _effect_size_passes, _pair_free_effect_size
+
+    z_min_time = DiagnoseSettings().z_min_time
+    assert z_min_time == 1.0
+    got = _amplitude_sizes(corroborated, by_amplitude, z_val, z_min_time)
+    assert got is sizes
+    # on a x1.013 cut (589/045's) the size then rests on this alone, on either path
+    assert _effect_size_passes(1.013, DiagnoseSettings().min_error_ratio, got, 5.7, True) is sizes
+    assert _pair_free_effect_size(1.013, DiagnoseSettings().pair_free_error_ratio, got, 0.9, 1.0) is sizes
+    # a cut of the null refit's error by the ratio still sizes a backed candidate
+    assert _pair_free_effect_size(1.144, DiagnoseSettings().pair_free_error_ratio, got, 0.9, 1.0)
+
+
 def test_a_servo_nonlinearity_acts_only_where_the_servo_reaches_it():
     """``nonlinearity_acts`` against the linear servo's own peak position and rate
     (scipy.signal.lsim of the servo alone, an independent reference): a saturation or
