@@ -1902,6 +1902,33 @@ def test_an_amplitude_backed_nonlinearity_needs_the_held_out_records_only_not_to
     assert verdicts == {True: (True, "saturation"), False: (False, "none")}
 
 
+def test_an_amplitude_size_refusal_is_flagged_in_the_detail(monkeypatch):
+    """Where ``_amplitude_sizes`` alone refuses a nonlinear candidate its effect size (it
+    passed on the amplitude test's backing, so that agreement cannot size it too), the
+    candidate's JSON detail says so (``amplitude_refused_as_size``), so that the rule's
+    refusals count exactly; where the rule is lifted the same candidate is sized, beats
+    noise and carries no flag.  The saturation case of the test above, with every other
+    size shut: no error cut counts (``min_error_ratio`` infinite) and the held-out BIC
+    route is closed (the fitted limit said not to act on the held-out records)."""
+    import jaxgwo._diagnose as D
+
+    train, val = _case("saturation", seed=1, limit=0.07)
+    settings = dataclasses.replace(SETTINGS, candidates=("saturation",), strong_error_ratio=math.inf,
+                                   z_min_time=math.inf, min_error_ratio=math.inf)  # fmt: skip
+    monkeypatch.setattr(D, "_against_null_j", lambda p_mse, p_j_null, *a: (False, p_mse))
+    monkeypatch.setattr(D, "nonlinearity_acts", lambda *a: False)
+    seen = {}
+    for rule in (True, False):
+        if not rule:
+            monkeypatch.setattr(D, "_amplitude_sizes", lambda corroborated, *a: corroborated)
+        d = diagnose(train, val, "lateral", settings)
+        (sat,) = [c for c in d.ranking if c.effects == ("saturation",)]
+        assert sat.detail["amplitude_corroborates"] == 1.0
+        seen[rule] = (sat.detail.get("amplitude_refused_as_size", 0.0), sat.detail["effect_size_passes"],
+                      sat.beats_noise)  # fmt: skip
+    assert seen == {True: (1.0, 0.0, False), False: (0.0, 1.0, True)}
+
+
 def test_cross_coupling_sigma_counts_the_regressors_and_residuals_joint_correlation():
     """Monte Carlo reference for the gain's 1-sigma: a slow off-axis stick (0.4 Hz pilot
     corrections) and an independent slow residual (the same process, another key) over

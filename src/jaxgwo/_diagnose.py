@@ -2703,14 +2703,20 @@ def diagnose(
                           gap_against_baseline=plain)
                 sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
                            extra_p=p_id, **kw)  # fmt: skip
+                acts = None if f.mode is not None else nonlinearity_acts(spec, tv, sc.predicted)
+
+                def effect_size(amplitude_counts: bool) -> bool:
+                    if f.mode is not None:  # on a structure finding, its pair refitted beside it
+                        return _pair_free_effect_size(nul.train_mse / f.train_mse, settings.pair_free_error_ratio,
+                                                      amplitude_counts, j_f, j_nul)  # fmt: skip
+                    return j_strong or _effect_size_passes(nul.train_mse / f.train_mse, settings.min_error_ratio,
+                                                           amplitude_counts, sc.delta_bic_val, acts)  # fmt: skip
+
                 sizes = _amplitude_sizes(corroborated, by_amplitude, sc.z_score, settings.z_min_time)
-                if f.mode is not None:  # on a structure finding, its pair refitted beside it
-                    sized = _pair_free_effect_size(nul.train_mse / f.train_mse, settings.pair_free_error_ratio,
-                                                   sizes, j_f, j_nul)  # fmt: skip
-                else:
-                    acts = nonlinearity_acts(spec, tv, sc.predicted)
-                    sized = j_strong or _effect_size_passes(nul.train_mse / f.train_mse, settings.min_error_ratio,
-                                                            sizes, sc.delta_bic_val, acts)  # fmt: skip
+                sized = effect_size(sizes)
+                # where _amplitude_sizes alone refused the size (the amplitude test's agreement
+                # would have sized it), say so, so that the rule's refusals count exactly
+                amplitude_refused = not sized and corroborated and not sizes and effect_size(True)
                 if not sized:  # significant perhaps, but too small an effect to trust
                     sc = score(base, f.effects, f.params, f.sigma, spec, j_f, base.cost_J_sim, 1, baseline=val_nul,
                                extra_p=1.0, predicted=sc.predicted, **kw)  # fmt: skip
@@ -2722,6 +2728,8 @@ def diagnose(
                        "null_cost_J": j_nul, "p_J_null": p_j_null}  # fmt: skip
                 if by_amplitude and sc.beats_noise and not sc.z_score > settings.z_min_time:
                     det["passed_on_amplitude_backing"] = 1.0  # the held-out records did not confirm it
+                if amplitude_refused:  # _amplitude_sizes: the backing already counted as evidence
+                    det["amplitude_refused_as_size"] = 1.0
                 if f.mode:  # the structure finding's pair as refitted beside the nonlinearity
                     det |= {f"pair_{q}": v for q, v in f.mode.items()}
                 else:
