@@ -3266,6 +3266,59 @@ def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monke
     assert "Estimated by refitting" not in d.summary()  # the J fit's own estimate (held off above)
 
 
+@pytest.mark.parametrize("p_j, p_td, refused", [
+    (8.1e-4, 0.995, True),  # fresh seed 603's case_053, a paper plant without an effect
+    (6.5e-4, 0.86, True),  # 541/054, the same
+    (7.5e-12, 0.76, False),  # 545/041, a true 8.2 Hz mode J alone carries far beyond noise
+    (1.3e-4, 3.2e-5, False),  # the output-error refit finds it at alpha: two tests agree
+    (0.99e-4, 0.5, False),  # J below alpha / 10 passes
+    (1.0e-4, 0.5, True),  # at it, not
+    (8.1e-4, 1.0e-3, True),  # an output-error p at alpha is no finding
+    (8.1e-4, None, False),  # no time-domain check: the rule has nothing to read
+])  # fmt: skip
+def test_a_resonance_j_alone_carries_near_its_threshold_is_refused(p_j, p_td, refused):
+    from jaxgwo._diagnose import DiagnoseSettings, _resonance_on_j_alone
+
+    s = DiagnoseSettings()
+    assert (s.alpha, s.alpha_resonance_j_alone) == (1e-3, 1e-4)
+    assert _resonance_on_j_alone(p_j, p_td, s.alpha, s.alpha_resonance_j_alone) is refused
+    assert not _resonance_on_j_alone(p_j, p_td, s.alpha, s.alpha)  # switched off: J at alpha suffices
+    with pytest.raises(ValueError, match="alpha_resonance_j_alone"):
+        DiagnoseSettings(alpha_resonance_j_alone=1.0)
+
+
+def test_diagnose_refuses_a_resonance_j_alone_carries_and_says_so(monkeypatch):
+    """The wiring of :func:`_resonance_on_j_alone` inside ``diagnose``: it is asked about
+    the paper model's ``structural_mode`` only, with that ``J`` fit's F-test p and its
+    time-domain check's p; a true 8.5 Hz mode passes (``J`` far beyond ``alpha`` / 10, the
+    refit finding it too) and is the verdict, unmarked.  Made to refuse it (and its
+    output-error refit kept from standing in), the mode no longer beats noise, is marked
+    ``refused_as_resonance_on_J_alone`` and is not the verdict."""
+    import jaxgwo._diagnose as dg
+
+    train, val = _case("structural_mode", seed=2, freq_hz=8.5, zeta_p=0.07, zeta_z=0.15)
+    settings = dataclasses.replace(SETTINGS, candidates=("structural_mode", "time_delay"))
+    calls, rule = [], dg._resonance_on_j_alone
+
+    def spy(p_j, p_td, alpha, alpha_j_alone):
+        calls.append((p_j, p_td, alpha, alpha_j_alone))
+        return rule(p_j, p_td, alpha, alpha_j_alone)
+
+    monkeypatch.setattr(dg, "_resonance_on_j_alone", spy)
+    d = diagnose(train, val, "lateral", settings)
+    (mode,) = [c for c in d.ranking if c.effects == ("structural_mode",)]
+    assert d.verdict == "structural_mode" and "refused_as_resonance_on_J_alone" not in mode.detail
+    assert len(calls) == 1 and calls[0][2:] == (settings.alpha, settings.alpha_resonance_j_alone)
+    p_j, p_td = calls[0][:2]
+    assert p_j < settings.alpha_resonance_j_alone and p_td == mode.detail["td_p_output_error"]
+    monkeypatch.setattr(dg, "_resonance_on_j_alone", lambda *a: True)
+    monkeypatch.setattr(dg, "_takes_time_domain_path", lambda *a, **kw: False)
+    off = diagnose(train, val, "lateral", settings)
+    (mode,) = [c for c in off.ranking if c.effects == ("structural_mode",)]
+    assert mode.detail.get("refused_as_resonance_on_J_alone") == 1.0 and not mode.beats_noise
+    assert off.verdict != "structural_mode"
+
+
 def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_noise(monkeypatch):
     """The wiring of :func:`_matched_filter_alone` (``alpha_resonance``) inside ``diagnose``.
     The 8.5 Hz resonance of the test above, with its ``J`` fit refused as there (positive-gap
