@@ -1112,7 +1112,11 @@ def _resonance_on_j_alone(p_j: float, p_time_domain: float | None, alpha: float,
     modes session 74 found carried by ``J`` alone, re-simulated, had 7.5e-12 (545/041,
     paper) and 9.8e-9 (547/071, an R-50's beside its pair, where the rule does not act).
     Rediagnosed with it, 541/054 and 603/053 answer ``none``.  Set on those two, in
-    sample."""
+    sample.  Out of sample, fresh seed 607 (diagnosed before it): of its stored
+    candidates it refuses two paper false alarms, 027 and 055 (``J`` p 4.1e-4 and
+    1.2e-4, output-error p 0.13 and 0.15), and nothing else; rediagnosed, 027 answers
+    ``none`` and 055 ``time_delay`` (a delay ``J`` passes at 7.5e-4, ranked second
+    before)."""
     return p_time_domain is not None and not p_time_domain < alpha and not p_j < alpha_j_alone
 
 
