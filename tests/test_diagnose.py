@@ -3317,6 +3317,13 @@ def test_diagnose_refuses_a_resonance_j_alone_carries_and_says_so(monkeypatch):
     (mode,) = [c for c in off.ranking if c.effects == ("structural_mode",)]
     assert mode.detail.get("refused_as_resonance_on_J_alone") == 1.0 and not mode.beats_noise
     assert off.verdict != "structural_mode"
+    # alone among the candidates, the refused mode leaves `none`, and the summary names it
+    # as unconfirmed for this reason, not for the held-out records
+    alone = diagnose(train, val, "lateral", dataclasses.replace(settings, candidates=("structural_mode",)))
+    assert alone.verdict == "none" and alone.unconfirmed == ("structural_mode",)
+    text = alone.summary()
+    assert "support it in the frequency-domain fit alone (its output-error refit at p" in text
+    assert "short of the 0.0001 a resonance picked from the band needs there" in text
 
 
 def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_noise(monkeypatch):

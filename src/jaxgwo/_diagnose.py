@@ -818,6 +818,10 @@ class Diagnosis:
             numbers = f"R^2 {ref:.3f} -> {c.val_r2:.3f}{of}, z {c.z_score:.1f}"
             held = (f"predict the held-out records worse with it ({numbers})" if c.val_r2 < ref - 5e-4 else
                     f"do not confirm it beyond noise ({numbers})")  # "worse" where the quoted R^2 shows it
+            if c.detail.get("refused_as_resonance_on_J_alone"):  # _resonance_on_j_alone refused it, not VAL
+                held = (f"support it in the frequency-domain fit alone (its output-error refit at p "
+                        f"{c.detail['td_p_output_error']:.2g}), short of the {c.detail['level_j_alone']:.2g} a "
+                        f"resonance picked from the band needs there ({numbers})")
             mode = c.params.get("structural_mode", {}).get("freq_hz")
             where = "" if mode is None else f" (for a resonance, energy near {mode:.3g} Hz)"
             lines.append(
@@ -2642,7 +2646,8 @@ def diagnose(
             if own == ("structural_mode",) and not base.linear and sc.beats_noise and _resonance_on_j_alone(
                     sc.train_p, det.get("td_p_output_error"), settings.alpha, settings.alpha_resonance_j_alone):
                 sc = dataclasses.replace(sc, beats_noise=False, score=sc.score - 10.0)
-                lin_scores[i] = (own, sc, sc_td, td_spec, det | {"refused_as_resonance_on_J_alone": 1.0})
+                lin_scores[i] = (own, sc, sc_td, td_spec, det | {"refused_as_resonance_on_J_alone": 1.0,
+                                                                  "level_j_alone": settings.alpha_resonance_j_alone})
         # a linear effect J finds at alpha (not one passed at the structure's level only)
         j_found = any(sc.beats_noise and sc.train_p < settings.alpha for _o, sc, *_r in lin_scores)
         for own, sc, sc_td, td_spec, det in lin_scores:
