@@ -1407,13 +1407,19 @@ def _ahead(ranking: tuple[CandidateScore, ...], chosen: Sequence[CandidateScore]
     return (*moved, *(c for c in ranking if not any(c is x for x in chosen)))
 
 
+def _refused(c: CandidateScore, detail: Mapping[str, float] | None = None) -> CandidateScore:
+    """``c`` no longer beating noise: its score less the 10 that
+    :func:`jaxgwo._diagnose_which.score_candidate` takes from a candidate that fails, and
+    ``detail`` added to its own."""
+    return dataclasses.replace(c, beats_noise=False, score=c.score - 10.0, detail=dict(c.detail) | dict(detail or {}))
+
+
 def _demoted(ranking: tuple[CandidateScore, ...], chosen: Sequence[CandidateScore],
              mark: str) -> tuple[CandidateScore, ...]:
-    """``ranking`` with ``chosen`` (candidates of it) no longer beating noise: each one's
-    score less 10 and ``detail[mark]`` set, placed among the failing ones by score; the
+    """``ranking`` with ``chosen`` (candidates of it) no longer beating noise
+    (:func:`_refused`, ``detail[mark]`` set), placed among the failing ones by score; the
     passing ones keep their order (lags moved over a delay stay so)."""
-    out = [dataclasses.replace(c, beats_noise=False, score=c.score - 10.0, detail=dict(c.detail) | {mark: 1.0})
-           for c in chosen]  # fmt: skip
+    out = [_refused(c, {mark: 1.0}) for c in chosen]
     rest = [c for c in ranking if not any(c is x for x in chosen)]
     failing = sorted([x for x in rest if not x.beats_noise] + out, key=_best_first)
     return (*(x for x in rest if x.beats_noise), *failing)
@@ -2645,8 +2651,8 @@ def diagnose(
         for i, (own, sc, sc_td, td_spec, det) in enumerate(lin_scores):
             if own == ("structural_mode",) and not base.linear and sc.beats_noise and _resonance_on_j_alone(
                     sc.train_p, det.get("td_p_output_error"), settings.alpha, settings.alpha_resonance_j_alone):
-                sc = dataclasses.replace(sc, beats_noise=False, score=sc.score - 10.0)
-                lin_scores[i] = (own, sc, sc_td, td_spec, det | {"refused_as_resonance_on_J_alone": 1.0,
+                # the mark goes in det, which becomes the candidate's detail below
+                lin_scores[i] = (own, _refused(sc), sc_td, td_spec, det | {"refused_as_resonance_on_J_alone": 1.0,
                                                                   "level_j_alone": settings.alpha_resonance_j_alone})
         # a linear effect J finds at alpha (not one passed at the structure's level only)
         j_found = any(sc.beats_noise and sc.train_p < settings.alpha for _o, sc, *_r in lin_scores)
