@@ -2198,7 +2198,7 @@ def test_pair_free_effect_size_on_the_stored_r50_cases(cut, corroborated, passes
 
     assert _pair_free_effect_size(cut, SETTINGS.pair_free_error_ratio, corroborated, 1.0, 1.0) is passes
     if not passes:
-        assert _effect_size_passes(cut, SETTINGS.min_error_ratio, corroborated, -1.0, True)
+        assert _effect_size_passes(cut, SETTINGS.min_error_ratio, corroborated, -3.0, True, SETTINGS.held_out_bic)
 
 
 @pytest.mark.parametrize("cut, corroborated, j, j_null, passes", [
@@ -2730,12 +2730,29 @@ def test_a_time_domain_refit_whose_effect_vanished_never_stands_in():
     (1.01, True, 20.0, False, True),  # the amplitude test corroborates (its own, weaker level)
     (1.028, False, -11.0, False, False),  # fresh seed 577's case_022, no effect: a limit above VAL's input
     (1.031, False, -510.7, True, True),  # fresh seed 565's case_068, a paper rate limit VAL reaches
+    (1.022, False, -1.4, True, False),  # fresh seed 607's case_022, no effect: a held-out gain below 2
+    (1.019, False, -3.1, True, True),  # 593/049's backlash: 3.1 is positive evidence
+    (1.03, False, -2.0, True, False),  # the level itself is not past it
 ])  # fmt: skip
 def test_a_small_nonlinear_error_cut_counts_only_with_an_effect_size_from_elsewhere(cut, corroborated, dbic_val, acts,
                                                                                     passes):  # fmt: skip
     from jaxgwo._diagnose import DiagnoseSettings, _effect_size_passes
 
-    assert _effect_size_passes(cut, DiagnoseSettings().min_error_ratio, corroborated, dbic_val, acts) is passes
+    settings = DiagnoseSettings()
+    assert settings.held_out_bic == 2.0
+    assert _effect_size_passes(cut, settings.min_error_ratio, corroborated, dbic_val, acts,
+                               settings.held_out_bic) is passes  # fmt: skip
+    # 0 restores the earlier rule: any held-out gain where the nonlinearity acts
+    assert _effect_size_passes(cut, settings.min_error_ratio, corroborated, dbic_val, acts, 0.0) is (
+        corroborated or cut >= settings.min_error_ratio or (dbic_val < 0.0 and acts))
+
+
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), "2"])
+def test_held_out_bic_must_be_a_non_negative_number(bad):
+    from jaxgwo._diagnose import DiagnoseSettings
+
+    with pytest.raises(ValueError, match="held_out_bic must be a BIC difference >= 0"):
+        DiagnoseSettings(held_out_bic=bad)
 
 
 @pytest.mark.parametrize("corroborated, by_amplitude, z_val, sizes", [
@@ -2754,7 +2771,7 @@ def test_the_amplitude_test_counts_once_backing_or_effect_size(corroborated, by_
     got = _amplitude_sizes(corroborated, by_amplitude, z_val, z_min_time)
     assert got is sizes
     # on a x1.013 cut (589/045's) the size then rests on this alone, on either path
-    assert _effect_size_passes(1.013, DiagnoseSettings().min_error_ratio, got, 5.7, True) is sizes
+    assert _effect_size_passes(1.013, DiagnoseSettings().min_error_ratio, got, 5.7, True, DiagnoseSettings().held_out_bic) is sizes
     assert _pair_free_effect_size(1.013, DiagnoseSettings().pair_free_error_ratio, got, 0.9, 1.0) is sizes
     # a cut of the null refit's error by the ratio still sizes a backed candidate
     assert _pair_free_effect_size(1.144, DiagnoseSettings().pair_free_error_ratio, got, 0.9, 1.0)
