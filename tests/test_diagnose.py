@@ -2766,15 +2766,15 @@ def test_held_out_bic_must_be_a_non_negative_number(bad):
 def test_the_amplitude_test_counts_once_backing_or_effect_size(corroborated, by_amplitude, z_val, sizes):
     from jaxgwo._diagnose import DiagnoseSettings, _amplitude_sizes, _effect_size_passes, _pair_free_effect_size
 
-    z_min_time = DiagnoseSettings().z_min_time
-    assert z_min_time == 1.0
-    got = _amplitude_sizes(corroborated, by_amplitude, z_val, z_min_time)
+    settings = DiagnoseSettings()
+    assert settings.z_min_time == 1.0
+    got = _amplitude_sizes(corroborated, by_amplitude, z_val, settings.z_min_time)
     assert got is sizes
     # on a x1.013 cut (589/045's) the size then rests on this alone, on either path
-    assert _effect_size_passes(1.013, DiagnoseSettings().min_error_ratio, got, 5.7, True, DiagnoseSettings().held_out_bic) is sizes
-    assert _pair_free_effect_size(1.013, DiagnoseSettings().pair_free_error_ratio, got, 0.9, 1.0) is sizes
+    assert _effect_size_passes(1.013, settings.min_error_ratio, got, 5.7, True, settings.held_out_bic) is sizes
+    assert _pair_free_effect_size(1.013, settings.pair_free_error_ratio, got, 0.9, 1.0) is sizes
     # a cut of the null refit's error by the ratio still sizes a backed candidate
-    assert _pair_free_effect_size(1.144, DiagnoseSettings().pair_free_error_ratio, got, 0.9, 1.0)
+    assert _pair_free_effect_size(1.144, settings.pair_free_error_ratio, got, 0.9, 1.0)
 
 
 def test_a_servo_nonlinearity_acts_only_where_the_servo_reaches_it():
