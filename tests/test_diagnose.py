@@ -865,6 +865,7 @@ def test_the_settings_nonlinear_budget_reaches_its_fits(monkeypatch):
     assert seen["steps"] == [s.nonlinear_polish_steps]  # the null's finish, before the profile
 
 
+@pytest.mark.slow
 def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
     from jaxgwo._diagnose import _time_pairs
     from jaxgwo._diagnose_which import ModelSpec, fit_nonlinear_candidates
@@ -878,6 +879,7 @@ def test_nonlinear_candidates_never_fit_worse_than_the_null_refit():
         assert f.train_mse <= null.train_mse * (1 + 1e-9), f.effects
 
 
+@pytest.mark.slow
 def test_nonlinear_refit_moves_the_rotor_term_the_nominal_fit_bent():
     """A frequency-domain nominal fit absorbs a rate limit's describing function into the
     rotor term as well as the servo.  Started from such a bent base (rotor tau and M 20 %
@@ -928,6 +930,7 @@ def test_free_mode_objective_equals_the_held_pair_objective_at_the_same_pair():
     assert np.abs(moved - y_held).max() > 0.01 * np.abs(y_held).max()
 
 
+@pytest.mark.slow
 def test_rate_limit_refit_frees_a_structure_pair_the_nominal_fit_misplaced():
     """A structure finding's pair, fitted to ``J`` before any nonlinearity, absorbs part of
     a rate limit's describing function (seed-359 case_059, an R-50: held there, the refit
@@ -1685,6 +1688,7 @@ def test_no_effect_case_answers_none():
             f"{worse:.3f} against the paper model refitted by output error, z -2.5)") in text
 
 
+@pytest.mark.slow
 def test_an_extra_pole_pair_is_structure_not_an_effect(monkeypatch):
     """A plant with a pole pair the paper model lacks (a 9 Hz mode at damping 0.15 whose
     zeros are real, like an R-50's coupled rotor mode) and no effect: the paper-model
@@ -1769,6 +1773,7 @@ def test_a_pair_pressed_against_the_vocabulary_floor_is_structure():
     assert d.verdict == "none" and d.structure.val_r2 > d.nominal_r2
 
 
+@pytest.mark.slow
 def test_structure_hidden_behind_a_long_delay_is_found():
     """The extra-pole-pair plant of the test above (9 Hz, damping 0.15, real zeros) with a
     60 ms delay: the delay takes the top place from the mode in the paper-model ranking
@@ -1802,6 +1807,7 @@ def test_structure_hidden_behind_a_long_delay_is_found():
     assert "model-form bias" in d.summary()  # the bound may understate the extra mode's model-form error
 
 
+@pytest.mark.slow
 def test_a_nominal_that_does_not_simulate_still_gets_finite_time_domain_tests():
     """A 50 ms delay drives the delay-free nominal to a servo of some 5e5 rad/s with
     damping 1e-3, which no simulation survives.  The time-domain fits then start from the
