@@ -1877,6 +1877,7 @@ def test_saturation_case_is_found():
     assert d.ranking[0].train_p < SETTINGS.alpha
 
 
+@pytest.mark.slow
 def test_an_amplitude_backed_nonlinearity_needs_the_held_out_records_only_not_to_contradict_it(monkeypatch):
     """A saturation the amplitude test corroborates and whose output-error F-test passes at
     ``alpha`` stands on two tests of the identification records (``_amplitude_backed``):
@@ -3240,6 +3241,7 @@ def _raise_the_mode_j_fits_floor(monkeypatch, dg):
     return own_floor
 
 
+@pytest.mark.slow
 def test_diagnose_takes_a_resonance_j_finds_where_its_own_floor_refuses_it(monkeypatch):
     """The wiring of :func:`_resonance_found_by_j` inside ``diagnose``.  An 8.5 Hz resonance
     (pole damping 0.07, zeros 0.15) that ``J`` finds is made to fail its own held-out floor:
@@ -3310,6 +3312,7 @@ def test_a_resonance_j_alone_carries_near_its_threshold_is_refused(p_j, p_td, re
         DiagnoseSettings(alpha_resonance_j_alone=1.0)
 
 
+@pytest.mark.slow
 def test_diagnose_refuses_a_resonance_j_alone_carries_and_says_so(monkeypatch):
     """The wiring of :func:`_resonance_on_j_alone` inside ``diagnose``: it is asked about
     the paper model's ``structural_mode`` only, with that ``J`` fit's F-test p and its
@@ -3349,6 +3352,7 @@ def test_diagnose_refuses_a_resonance_j_alone_carries_and_says_so(monkeypatch):
     assert "short of the 0.0001 a resonance picked from the band needs there" in text
 
 
+@pytest.mark.slow
 def test_diagnose_takes_a_resonance_the_matched_filter_alone_finds_far_beyond_noise(monkeypatch):
     """The wiring of :func:`_matched_filter_alone` (``alpha_resonance``) inside ``diagnose``.
     The 8.5 Hz resonance of the test above, with its ``J`` fit refused as there (positive-gap
@@ -3430,6 +3434,7 @@ def test_a_resonance_far_beyond_noise_by_the_matched_filter_alone_needs_the_held
     assert _matched_filter_alone(True, False, matched_filter_p(5.25, 3), s.alpha_resonance) and not -0.044 > gap_un
 
 
+@pytest.mark.slow
 def test_a_coupling_far_beyond_noise_on_the_paper_model_needs_the_held_out_records_only_not_to_contradict_it():
     """``alpha_coupling_gain``: the held-out multisteps here carry almost no off-axis stick
     (0.002 rms against the sweeps' 0.02), so they cannot confirm a coupling of 0.1 (z below
