@@ -1,6 +1,6 @@
 """Audit ``DiagnoseSettings.held_out_bic`` on stored blind-study draws (issue 5).
 
-    python benchmarks/audit_held_out_bic.py W1 W2 ... [--level 2.0] [--min-error-ratio 1.05]
+    python benchmarks/audit_held_out_bic.py W1 W2 ... [--level L] [--min-error-ratio R]
 
 Each ``W`` is a workdir of ``benchmarks/blind_diagnosis.py`` holding ``key.json`` and the
 full ``diagnoses.json`` (the markdown reports do not keep the candidates' details).  A
@@ -19,7 +19,8 @@ effect size only from the held-out records' BIC against the null refit (see
 Each line gives the truth from the key beside the case's verdict, so an audit tells right
 verdicts the level removed from false alarms it prevented.  It reads the diagnoses as
 stored; nothing is diagnosed again.  Pass draws diagnosed on a commit that has
-``held_out_bic`` (82e42d4 or later) for the refusals to be the rule's own.
+``held_out_bic`` (82e42d4 or later) for the refusals to be the rule's own; ``--level`` and
+``--min-error-ratio`` default to :class:`DiagnoseSettings`' values.
 """
 
 from __future__ import annotations
@@ -29,7 +30,10 @@ import json
 import sys
 from pathlib import Path
 
-NONLINEAR = ("rate_limit", "backlash", "saturation")
+from jaxgwo._diagnose import DiagnoseSettings
+from jaxgwo._diagnose_which import NONLINEAR
+
+DEFAULTS = DiagnoseSettings()
 RANKINGS = ("ranking", "ranking_paper_model")
 
 
@@ -61,13 +65,15 @@ def audit(workdirs: list[Path], level: float, min_error_ratio: float) -> tuple[l
             report = stored.get("report", stored)
             if "verdict" not in report:
                 continue  # a case whose diagnosis failed: the draw's report lists it
-            head = f"{w.name} {case} {key[case]['plant']:5s} true {key[case]['effect']:15s} verdict {report['verdict']:15s}"
+            truth = key[case]
+            head = f"{w.name} {case} {truth['plant']:5s} true {truth['effect']:15s} verdict {report['verdict']:15s}"
             for name, place, cand, cut in small_cut_candidates(report, min_error_ratio):
                 det, dbic = cand["detail"], cand["delta_bic_val"]
-                line = (f"{head} {name} #{place} {cand['effect']:10s} cut x{cut:.3f} "
-                        f"p {det.get('p_output_error', cand['train_p']):.1e} dBIC_val {dbic:.2f} z {cand['z_score']:.2f}")  # fmt: skip
                 if det.get("effect_size_passes") is None:
                     continue  # not tested for size (a draw from before the test)
+                p = det.get("p_output_error", cand["train_p"])
+                line = (f"{head} {name} #{place} {cand['effect']:10s} cut x{cut:.3f} p {p:.1e} "
+                        f"dBIC_val {dbic:.2f} z {cand['z_score']:.2f}")  # fmt: skip
                 if det["effect_size_passes"]:
                     sized.append(f"{line} beats_noise {cand['beats_noise']}")
                 elif det.get("acts_on_held_out") == 1.0 and -level <= dbic < 0.0:
@@ -78,8 +84,10 @@ def audit(workdirs: list[Path], level: float, min_error_ratio: float) -> tuple[l
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("workdirs", nargs="+", type=Path)
-    ap.add_argument("--level", type=float, default=2.0, help="held_out_bic the draws were diagnosed with (2.0)")
-    ap.add_argument("--min-error-ratio", type=float, default=1.05, help="min_error_ratio (1.05)")
+    ap.add_argument("--level", type=float, default=DEFAULTS.held_out_bic,
+                    help=f"held_out_bic the draws were diagnosed with ({DEFAULTS.held_out_bic:g})")
+    ap.add_argument("--min-error-ratio", type=float, default=DEFAULTS.min_error_ratio,
+                    help=f"min_error_ratio ({DEFAULTS.min_error_ratio:g})")
     args = ap.parse_args(argv)
     if args.level < 0:
         ap.error(f"--level is a BIC difference >= 0, got {args.level}")
