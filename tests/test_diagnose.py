@@ -201,12 +201,13 @@ def test_delay_aware_start_recovers_a_long_delay_and_the_gain_sign():
     assert ds.cost_J < 1.0  # WLS on the exactly delay-compensated, noise-free response is all but exact
 
 
-def _airframe_numpy(w, p, fz, fp, fm, zp, zz, delay):
-    """Eqs. (15)-(16) times a lead-lag, a pole pair and a delay, in plain NumPy."""
+def _airframe_numpy(w, p, fz, fp, fm, zp, zz, delay, tau_f=0.0):
+    """Eqs. (15)-(16) times a lead-lag, a pole pair and a delay, in plain NumPy; with
+    ``tau_f`` the rotor term is the flapping-lag cubic ``K/((s^2+s/tau)(tau_f s+1)+M)``."""
     s = 1j * np.asarray(w)
     k, tau, m, ws, zs = p
     wm = 2 * np.pi * fm
-    return (k / (s * s + s / tau + m) * ws**2 / (s * s + 2 * zs * ws * s + ws**2)
+    return (k / ((s * s + s / tau) * (tau_f * s + 1) + m) * ws**2 / (s * s + 2 * zs * ws * s + ws**2)
             * (s / (2 * np.pi * fz) + 1) / (s / (2 * np.pi * fp) + 1)
             * (s * s + 2 * zz * wm * s + wm**2) / (s * s + 2 * zp * wm * s + wm**2) * np.exp(-s * delay))  # fmt: skip
 
@@ -214,84 +215,98 @@ def _airframe_numpy(w, p, fz, fp, fm, zp, zz, delay):
 _AIRFRAME = (1.3, 4.0, 1.8, 0.2, 0.8)  # lead-lag zero and pole (Hz), pair (Hz, pole and zero damping)
 
 
-def test_lead_lag_airframe_response_matches_numpy():
+@pytest.mark.parametrize("lag", ["time_delay", "rotor_flapping"])
+def test_lead_lag_airframe_response_matches_numpy(lag):
     from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose_which import LeadLagAirframe
     from jaxgwo._models import ParameterMap
 
     p = np.abs(np.asarray(MODEL.to_array(), float))
     resp = _response(lambda w: MODEL.frequency_response(w), w_max=120.0)
-    obj = LeadLagAirframe(CiferObjective.from_response(resp, ParameterMap.for_model(MODEL)))
+    obj = LeadLagAirframe(CiferObjective.from_response(resp, ParameterMap.for_model(MODEL)), lag)
     x = np.r_[np.log(p), np.log(_AIRFRAME), 0.025]
+    delay, tau_f = (0.025, 0.0) if lag == "time_delay" else (0.0, 0.025)
     np.testing.assert_allclose(np.asarray(obj.response(jnp.asarray(x))),
-                               _airframe_numpy(resp.w, p, *_AIRFRAME, 0.025), rtol=1e-10)  # fmt: skip
+                               _airframe_numpy(resp.w, p, *_AIRFRAME, delay, tau_f), rtol=1e-10)  # fmt: skip
 
 
-def test_airframe_delay_refit_recovers_a_delay_inside_its_family():
-    """Noise-free data from the lead-lag x low-mode airframe with a 40 ms delay; the refit
-    starts where a pair fit might leave it (paper parameters 30 % off, the delay 10 ms
-    short, the pair elsewhere) and reads the delay back."""
+@pytest.mark.parametrize("lag, truth", [("time_delay", 0.040), ("rotor_flapping", 0.020)])
+def test_airframe_lag_refit_recovers_a_lag_inside_its_family(lag, truth):
+    """Noise-free data from the lead-lag x low-mode airframe with a 40 ms delay or a 20 ms
+    flapping lag; the refit starts where a pair fit might leave it (paper parameters 30 %
+    off, the lag 10 ms short, the pair elsewhere) and reads the lag back."""
     from jaxgwo._cost import CiferObjective
-    from jaxgwo._diagnose_which import airframe_delay_refit
+    from jaxgwo._diagnose_which import airframe_lag_refit
     from jaxgwo._models import ParameterMap
 
     p = np.abs(np.asarray(MODEL.to_array(), float))
-    delay = 0.040
-    resp = _response(lambda w: jnp.asarray(_airframe_numpy(w, p, *_AIRFRAME, delay)), w_max=120.0)
+    delay, tau_f = (truth, 0.0) if lag == "time_delay" else (0.0, truth)
+    resp = _response(lambda w: jnp.asarray(_airframe_numpy(w, p, *_AIRFRAME, delay, tau_f)), w_max=120.0)
     obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
-    x_fit = np.r_[np.log(p) + np.log([1.3, 0.8, 1.3, 0.8, 1.3]), delay - 0.010, np.log(100.0), 0.0,
-                  np.log([8.0, 0.3, 3.0])]  # fmt: skip
-    d, j = airframe_delay_refit(obj, x_fit)
-    assert abs(d - delay) < 5e-4
+    z = np.array([0.0, np.log(100.0), 0.0, *np.log([8.0, 0.3, 3.0])])
+    z[0 if lag == "time_delay" else 2] = truth - 0.010
+    x_fit = np.r_[np.log(p) + np.log([1.3, 0.8, 1.3, 0.8, 1.3]), z]
+    v, j = airframe_lag_refit(obj, x_fit, lag)
+    assert abs(v - truth) < 5e-4
     assert j < 1e-3
 
 
-def test_bracketed_delay_is_the_centre_with_a_rectangular_spread_in_quadrature():
-    from jaxgwo._diagnose_which import bracketed_delay
+def test_bracketed_lag_is_the_centre_with_a_rectangular_spread_in_quadrature():
+    from jaxgwo._diagnose_which import bracketed_lag
 
-    d, s = bracketed_delay(0.020, 0.0009, 0.028)
+    d, s = bracketed_lag(0.020, 0.0009, 0.028)
     assert d == pytest.approx(0.024) and s == pytest.approx(math.hypot(0.0009, 0.004 / math.sqrt(3.0)))
-    assert bracketed_delay(0.028, 0.0009, 0.020) == pytest.approx((d, s))  # either order
-    assert bracketed_delay(0.020, 0.0009, 0.020) == pytest.approx((0.020, 0.0009))
-    assert math.isnan(bracketed_delay(0.020, math.nan, 0.028)[1])
+    assert bracketed_lag(0.028, 0.0009, 0.020) == pytest.approx((d, s))  # either order
+    assert bracketed_lag(0.020, 0.0009, 0.020) == pytest.approx((0.020, 0.0009))
+    assert math.isnan(bracketed_lag(0.020, math.nan, 0.028)[1])
 
 
-def test_airframe_bracket_reports_the_centre_only_for_a_delay_that_beats_noise():
+@pytest.mark.parametrize("lag, param, stem, truth", [("time_delay", "delay_s", "delay", 0.040),
+                                                     ("rotor_flapping", "tau_f", "tau_f", 0.020)])
+def test_airframe_bracket_reports_the_centre_only_for_a_lag_that_beats_noise(lag, param, stem, truth):
+    """The pair fit read the lag 4 ms short (``read``); the lead-lag airframe, which made the
+    data, reads it back, and the report gives their centre with the bracket's spread."""
     from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose import _airframe_bracket, _params_text
-    from jaxgwo._diagnose_which import LinearFit, airframe_delay_refit
+    from jaxgwo._diagnose_which import LinearFit, airframe_lag_refit
     from jaxgwo._models import ParameterMap
 
     p = np.abs(np.asarray(MODEL.to_array(), float))
-    resp = _response(lambda w: jnp.asarray(_airframe_numpy(w, p, *_AIRFRAME, 0.040)), w_max=120.0)
+    delay, tau_f = (truth, 0.0) if lag == "time_delay" else (0.0, truth)
+    read = truth - 0.004
+    resp = _response(lambda w: jnp.asarray(_airframe_numpy(w, p, *_AIRFRAME, delay, tau_f)), w_max=120.0)
     obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
-    pair = ("structural_mode", "time_delay")
-    x_fit = np.r_[np.log(p), 0.036, np.log(100.0), 0.0, np.log([8.0, 0.3, 3.0])]
+    pair = ("structural_mode", lag)
+    z = np.array([0.0, np.log(100.0), 0.0, *np.log([8.0, 0.3, 3.0])])
+    z[0 if lag == "time_delay" else 2] = read
+    x_fit = np.r_[np.log(p), z]
     fits = {pair: LinearFit(pair, x_fit, 1.0, {}, {})}
     lin_from = {pair: (obj, x_fit[:5], x_fit[5:], np.ones(5))}
 
     def cand(effect, ok):
-        if effect != "time_delay":
+        if effect != lag:
             return _scored(effect, 1.0, ok)
-        return dataclasses.replace(_scored(effect, 1.0, ok), params={effect: {"delay_s": 0.036}},
-                                   sigma={effect: {"delay_s": 0.001}})  # fmt: skip
+        return dataclasses.replace(_scored(effect, 1.0, ok), params={effect: {param: read}},
+                                   sigma={effect: {param: 0.001}})  # fmt: skip
 
-    for unchanged in (cand("time_delay", False), cand("sensor_lag", True)):
+    other = "sensor_lag" if lag == "time_delay" else "time_delay"
+    for unchanged in (cand(lag, False), cand(other, True)):
         assert _airframe_bracket(unchanged, fits, lin_from) is unchanged
-    assert _airframe_bracket(cand("time_delay", True), {}, lin_from).params["time_delay"]["delay_s"] == 0.036
-    out = _airframe_bracket(cand("time_delay", True), fits, lin_from)
-    d_air, j_air = airframe_delay_refit(obj, x_fit)
-    assert out.detail["delay_pair_s"] == 0.036 and out.detail["delay_airframe_s"] == pytest.approx(d_air)
-    assert out.params["time_delay"]["delay_s"] == pytest.approx(0.5 * (0.036 + d_air))
-    spread = 0.5 * abs(d_air - 0.036) / math.sqrt(3.0)  # the bracket's rectangular spread
-    assert out.sigma["time_delay"]["delay_s"] == pytest.approx(math.hypot(0.001, spread))
+    assert _airframe_bracket(cand(lag, True), {}, lin_from).params[lag][param] == read
+    out = _airframe_bracket(cand(lag, True), fits, lin_from)
+    v_air, j_air = airframe_lag_refit(obj, x_fit, lag)
+    assert abs(v_air - truth) < 1e-3  # the refit reads the lag inside its own family
+    assert out.detail[f"{stem}_pair_s"] == read and out.detail[f"{stem}_airframe_s"] == pytest.approx(v_air)
+    assert out.params[lag][param] == pytest.approx(0.5 * (read + v_air))
+    spread = 0.5 * abs(v_air - read) / math.sqrt(3.0)  # the bracket's rectangular spread
+    assert out.sigma[lag][param] == pytest.approx(math.hypot(0.001, spread))
     assert "two airframe models read" in _params_text(out)
     # where the pair fits J better than the lead-lag airframe, only the ratio is recorded
     assert 0.0 < j_air < 1.0 and out.detail["airframe_J_ratio"] == pytest.approx(j_air)
     better_pair = {pair: LinearFit(pair, x_fit, 0.5 * j_air, {}, {})}
-    kept = _airframe_bracket(cand("time_delay", True), better_pair, lin_from)
-    assert kept.params["time_delay"]["delay_s"] == 0.036 and kept.sigma["time_delay"]["delay_s"] == 0.001
-    assert kept.detail["airframe_J_ratio"] > 1.0 and "delay_airframe_s" not in kept.detail
+    kept = _airframe_bracket(cand(lag, True), better_pair, lin_from)
+    assert kept.params[lag][param] == read and kept.sigma[lag][param] == 0.001
+    assert kept.detail["airframe_J_ratio"] > 1.0 and f"{stem}_airframe_s" not in kept.detail
     assert "airframe models" not in _params_text(kept)
 
 

@@ -53,6 +53,7 @@ from ._diagnose_which import (
     _Z_LO,
     _Z_LO_STRUCTURE,
     _Z_NEUTRAL,
+    AIRFRAME_LAGS,
     FREQUENCY_DOMAIN,
     NONLINEAR,
     AugmentedCifer,
@@ -62,8 +63,8 @@ from ._diagnose_which import (
     TimeFit,
     _active_mask,
     _flipped_objective,
-    airframe_delay_refit,
-    bracketed_delay,
+    airframe_lag_refit,
+    bracketed_lag,
     delay_aware_start,
     f_test_p,
     fit_cross_coupling,
@@ -762,11 +763,13 @@ class Diagnosis:
                     f"support it only weakly (p {top.train_p:.2g}). Sweeps with more off-axis stick activity "
                     "would measure it on its own."
                 )
-            if self.structure is not None and "delay_airframe_s" in top.detail:
+            bracketed = any(f"{stem}_airframe_s" in top.detail for *_p, stem in AIRFRAME_LAGS.values())
+            if self.structure is not None and bracketed:
                 lines.append(
                     "The +- counts random error and, for the model-form bias of that extra pole pair (an "
                     "approximation of the airframe), the spread between it and a lead-lag times a low pole pair: "
-                    "on the blind study's R-50 plants the pair read every delay short and the lead-lag long."
+                    "on the blind study's R-50 plants the pair read every delay and flapping lag short and the "
+                    "lead-lag long."
                 )
             elif self.structure is not None:
                 # blind-study R-50 delays: 0-13.5 ms low against bounds of 1.2-2.6 ms
@@ -869,12 +872,13 @@ def _params_text(c: CandidateScore) -> str:
             s = c.sigma.get(e, {}).get(p, float("nan"))
             if p == "delay_s":
                 text = f"{e} = {1e3 * v:.1f} ms (+-{1e3 * s:.1f})"  # a 0.4 ms bound is no "+-0"
-                if "delay_airframe_s" in c.detail:
-                    lo, hi = sorted((c.detail["delay_pair_s"], c.detail["delay_airframe_s"]))
-                    text += f", the centre of the {1e3 * lo:.1f}-{1e3 * hi:.1f} ms two airframe models read"
-                parts.append(text)
             else:
-                parts.append(f"{e} {p} = {v:.3g} (+-{s:.2g})")
+                text = f"{e} {p} = {v:.3g} (+-{s:.2g})"
+            lag = AIRFRAME_LAGS.get(e)  # (parameter, coordinate, detail stem) of a lag read two ways
+            if lag is not None and lag[0] == p and f"{lag[2]}_airframe_s" in c.detail:
+                lo, hi = sorted((c.detail[f"{lag[2]}_pair_s"], c.detail[f"{lag[2]}_airframe_s"]))
+                text += f", the centre of the {1e3 * lo:.1f}-{1e3 * hi:.1f} ms two airframe models read"
+            parts.append(text)
     return ", ".join(parts)
 
 
@@ -1957,33 +1961,37 @@ def _paper_estimate(sc: CandidateScore, refit: tuple | None) -> CandidateScore:
 
 
 def _airframe_bracket(sc: CandidateScore, fits: Mapping, lin_from: Mapping) -> CandidateScore:
-    """A ``time_delay`` that beats noise on top of a structure finding, its delay read as the
-    centre of the pair fit's and a :class:`jaxgwo._diagnose_which.LeadLagAirframe` refit's
-    (:func:`jaxgwo._diagnose_which.bracketed_delay`; both kept in ``detail`` as
-    ``delay_pair_s`` and ``delay_airframe_s``), where that refit fits ``J`` better than the
-    pair (``detail``'s ``airframe_J_ratio`` below 1): there the pair is the poorer
-    description of the airframe, and the two read the delay from opposite sides (every
-    R-50 delay of the blind study, J ratio 0.54-0.83).  Where the pair describes it
-    better, as a pole pair with real zeros on the paper model does (in
-    ``test_structure_hidden_behind_a_long_delay_is_found`` the lead-lag family read its
-    60 ms delay 14.5 ms long, the centre 7 ms), only the ratio is recorded.  Only the
-    reported delay and its bound change: the model scored on the held-out records, and so
-    the ranking, stays the pair fit's.  Any other candidate, or one without that fit, is
-    returned as it is."""
-    pair = ("structural_mode", "time_delay")
-    if sc.effects != ("time_delay",) or not sc.beats_noise or pair not in fits:
+    """A ``time_delay`` or ``rotor_flapping`` that beats noise on top of a structure finding,
+    its lag read as the centre of the pair fit's and a
+    :class:`jaxgwo._diagnose_which.LeadLagAirframe` refit's
+    (:func:`jaxgwo._diagnose_which.bracketed_lag`; both kept in ``detail`` as
+    ``delay_pair_s`` and ``delay_airframe_s``, or ``tau_f_pair_s`` and ``tau_f_airframe_s``),
+    where that refit fits ``J`` better than the pair (``detail``'s ``airframe_J_ratio``
+    below 1): there the pair is the poorer description of the airframe, and the two read
+    the lag from opposite sides (every R-50 delay of the blind study, J ratio 0.54-0.83).
+    Where the pair describes it better, as a pole pair with real zeros on the paper model
+    does (in ``test_structure_hidden_behind_a_long_delay_is_found`` the lead-lag family
+    read its 60 ms delay 14.5 ms long, the centre 7 ms), only the ratio is recorded.  Only
+    the reported lag and its bound change: the model scored on the held-out records, and
+    so the ranking, stays the pair fit's.  Any other candidate, or one without that fit,
+    is returned as it is."""
+    if len(sc.effects) != 1 or sc.effects[0] not in AIRFRAME_LAGS or not sc.beats_noise:
         return sc
-    refit = airframe_delay_refit(lin_from[pair][0], fits[pair].x)
+    (e,) = sc.effects
+    param, _i, stem = AIRFRAME_LAGS[e]
+    pair = ("structural_mode", e)
+    if pair not in fits:
+        return sc
+    refit = airframe_lag_refit(lin_from[pair][0], fits[pair].x, e)
     if refit is None:
         return sc
     ratio = refit[1] / fits[pair].cost_J if fits[pair].cost_J > 0.0 else math.inf
     if not ratio < 1.0:
         return dataclasses.replace(sc, detail={**sc.detail, "airframe_J_ratio": ratio})
-    d_pair = sc.params["time_delay"]["delay_s"]
-    d, s = bracketed_delay(d_pair, sc.sigma.get("time_delay", {}).get("delay_s", math.nan), refit[0])
-    return dataclasses.replace(sc, params={**sc.params, "time_delay": {"delay_s": d}},
-                               sigma={**sc.sigma, "time_delay": {"delay_s": s}},
-                               detail={**sc.detail, "delay_pair_s": d_pair, "delay_airframe_s": refit[0],
+    v_pair = sc.params[e][param]
+    v, s = bracketed_lag(v_pair, sc.sigma.get(e, {}).get(param, math.nan), refit[0])
+    return dataclasses.replace(sc, params={**sc.params, e: {param: v}}, sigma={**sc.sigma, e: {param: s}},
+                               detail={**sc.detail, f"{stem}_pair_s": v_pair, f"{stem}_airframe_s": refit[0],
                                        "airframe_J_ratio": ratio})  # fmt: skip
 
 

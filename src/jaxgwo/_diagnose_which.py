@@ -236,26 +236,32 @@ def delay_aware_start(response, objective: CiferObjective, sign: float, delays_s
 
 
 class LeadLagAirframe(eqx.Module):
-    r"""CIFER cost ``J`` of the paper model times a first-order lead-lag, a low pole pair and a
-    time delay: :math:`G(s)\,\frac{s/(2\pi f_z)+1}{s/(2\pi f_p)+1}\,M(s)\,e^{-s\tau_d}`,
-    ``M`` the ``structural_mode`` factor held to 0.5-3 Hz.
+    r"""CIFER cost ``J`` of the paper model times a first-order lead-lag, a low pole pair and
+    one lag effect: :math:`G(s)\,\frac{s/(2\pi f_z)+1}{s/(2\pi f_p)+1}\,M(s)\,e^{-s\tau_d}`
+    with ``lag`` ``"time_delay"``, or with the flapping lag inside the rotor term (the cubic
+    :math:`K/((s^2+s/\tau)(\tau_f s+1)+M)` of :func:`jaxgwo._effects.rotor_flapping_response`)
+    and no delay with ``lag`` ``"rotor_flapping"``; ``M`` the ``structural_mode`` factor
+    held to 0.5-3 Hz.
 
     The airframe family that fits the published R-50 best of those probed
     (``benchmarks/results/r50_structure_families.md``: 0.78 deg noise-free against the one
     pole pair's 2.21).  ``x = (log K, log tau, log M, log omega_s, log zeta_s, log f_z,
-    log f_p, log f_mode, log zeta_p, log zeta_z, tau_d)`` on the sign-normalised response.
+    log f_p, log f_mode, log zeta_p, log zeta_z, lag)`` on the sign-normalised response,
+    ``lag`` the delay ``tau_d`` or the flapping lag ``tau_f`` (s).
     """
 
     cifer: CiferObjective
+    lag: str = eqx.field(static=True, default="time_delay")
 
     def response(self, x: Float[Array, " 11"]):
         w = self.cifer.w
         one = jnp.ones_like(w)
         lead = jax.lax.complex(one, w / (2.0 * jnp.pi * jnp.exp(x[5])))
         lag = jax.lax.complex(one, w / (2.0 * jnp.pi * jnp.exp(x[6])))
-        h = rotor_flapping_response(jnp.exp(x[:5]), w, 0.0) * lead / lag
+        flapping = self.lag == "rotor_flapping"
+        h = rotor_flapping_response(jnp.exp(x[:5]), w, x[10] if flapping else 0.0) * lead / lag
         h = h * structural_mode_response(w, jnp.exp(x[7]), jnp.exp(x[8]), jnp.exp(x[9]))
-        return h * time_delay_response(w, x[10])
+        return h if flapping else h * time_delay_response(w, x[10])
 
     def residuals(self, x: Float[Array, " 11"]) -> Float[Array, " 2freq"]:
         return self.cifer.residuals_from_response(self.response(x))
@@ -267,33 +273,45 @@ damping), as ``benchmarks/r50_structure_noisy.py`` probed it."""
 
 _LEAD_LAG_STARTS = tuple(np.log([a, b, f, 0.3, 0.3]) for a in (0.5, 1.1, 2.0) for b in (2.0, 4.0, 8.0)
                          for f in (1.0, 2.0))  # fmt: skip
-"""The 18 starts of :func:`airframe_delay_refit`'s lead-lag and low pair (zero 0.5-2 Hz, pole
+"""The 18 starts of :func:`airframe_lag_refit`'s lead-lag and low pair (zero 0.5-2 Hz, pole
 2-8 Hz, pair at 1 or 2 Hz), the grid the probe used."""
 
 
-def airframe_delay_refit(objective: CiferObjective, x_fit: np.ndarray) -> tuple[float, float] | None:
-    """The delay of a ``time_delay`` fitted on top of a structure finding (``x_fit``: the
-    paper model, the pair and the delay as :class:`AugmentedCifer` has them), refitted on
-    ``J`` beside :class:`LeadLagAirframe` instead of the one pole pair: the paper
-    parameters free by a factor 8 around the fit's, the delay started at the fit's, the
-    lead-lag and the low pair from a grid (bounded ``least_squares`` from each start).
+AIRFRAME_LAGS = {"time_delay": ("delay_s", 0, "delay"), "rotor_flapping": ("tau_f", 2, "tau_f")}
+"""The lag effects :func:`airframe_lag_refit` reads beside :class:`LeadLagAirframe`: each
+one's parameter, its effect coordinate ``z_i`` (:class:`AugmentedCifer`) and the stem of
+the report's ``detail`` keys (``<stem>_pair_s``, ``<stem>_airframe_s``)."""
 
-    Returns ``(delay_s, J)`` of the best start, or ``None`` where none ends finite.
 
-    Why: on the R-50 the pair leaves a model-form error that the delay trades against (at
+def airframe_lag_refit(objective: CiferObjective, x_fit: np.ndarray,
+                       effect: str = "time_delay") -> tuple[float, float] | None:
+    """The lag of a ``time_delay`` or ``rotor_flapping`` (``effect``, :data:`AIRFRAME_LAGS`)
+    fitted on top of a structure finding (``x_fit``: the paper model, the pair and the lag
+    as :class:`AugmentedCifer` has them), refitted on ``J`` beside
+    :class:`LeadLagAirframe` instead of the one pole pair: the paper parameters free by a
+    factor 8 around the fit's, the lag started at the fit's, the lead-lag and the low pair
+    from a grid (bounded ``least_squares`` from each start).
+
+    Returns ``(lag, J)`` of the best start (the delay or ``tau_f``, s), or ``None`` where
+    none ends finite.
+
+    Why: on the R-50 the pair leaves a model-form error that the lag trades against (at
     the true delay, the rest refitted, the pair's ``J`` is higher than at its minimum).
     Over the 16 true R-50 delays of blind seeds 199-239 (13-75 ms) the diagnosis's pair fit
     read every one short (by 0.1-5.1 ms) and this family every one long (by 0.6-9.8 ms,
     ``benchmarks/results/r50_structure_noisy.md``), so the two bracket the truth; so they
-    did on the six of fresh seeds 241-263, checked after the rule was set.  ``diagnose``
-    reports the bracket's centre (:func:`bracketed_delay`)."""
+    did on the six of fresh seeds 241-263, checked after the rule was set.  The pair reads
+    an R-50 flapping lag short too (0.31-0.68 of the truth on the six named in fresh draws
+    593-615); ``diagnose`` reports the bracket's centre (:func:`bracketed_lag`) of
+    either."""
     from scipy.optimize import least_squares
 
-    obj = LeadLagAirframe(objective)
+    _param, i, _stem = AIRFRAME_LAGS[effect]
+    obj = LeadLagAirframe(objective, effect)
     x_fit = np.asarray(x_fit, float)
     half = math.log(8.0)
-    lo = np.r_[x_fit[:5] - half, _LEAD_LAG_BOX[0], _Z_LO[0]]
-    hi = np.r_[x_fit[:5] + half, _LEAD_LAG_BOX[1], _Z_HI[0]]
+    lo = np.r_[x_fit[:5] - half, _LEAD_LAG_BOX[0], _Z_LO[i]]
+    hi = np.r_[x_fit[:5] + half, _LEAD_LAG_BOX[1], _Z_HI[i]]
 
     def fun(v):
         return np.asarray(_residuals(obj, jnp.asarray(v)))
@@ -303,7 +321,7 @@ def airframe_delay_refit(objective: CiferObjective, x_fit: np.ndarray) -> tuple[
 
     best = None
     for s0 in _LEAD_LAG_STARTS:
-        v0 = np.clip(np.r_[x_fit[:5], s0, x_fit[5]], lo + 1e-9, hi - 1e-9)
+        v0 = np.clip(np.r_[x_fit[:5], s0, x_fit[5 + i]], lo + 1e-9, hi - 1e-9)
         try:
             sol = least_squares(fun, v0, jac=jac, bounds=(lo, hi), method="trf", max_nfev=100)
         except (ValueError, np.linalg.LinAlgError):
@@ -314,15 +332,15 @@ def airframe_delay_refit(objective: CiferObjective, x_fit: np.ndarray) -> tuple[
     return best
 
 
-def bracketed_delay(delay_pair_s: float, sigma_s: float, delay_airframe_s: float) -> tuple[float, float]:
-    """``(delay_s, sigma_s)``: the centre of the interval that the pair fit's delay and the
-    :class:`LeadLagAirframe` refit's span, its uncertainty the fit's ``sigma_s`` and the
-    interval's own added in quadrature.  The interval's is that of a quantity known only to
-    lie in it, a rectangular distribution: half-width / sqrt(3) (GUM, JCGM 100:2008,
-    4.3.7)."""
-    centre = 0.5 * (delay_pair_s + delay_airframe_s)
-    half = 0.5 * abs(delay_airframe_s - delay_pair_s)
-    return centre, math.hypot(sigma_s, half / math.sqrt(3.0)) if math.isfinite(sigma_s) else sigma_s
+def bracketed_lag(pair_reading: float, sigma: float, airframe_reading: float) -> tuple[float, float]:
+    """``(lag, sigma)``: the centre of the interval that the pair fit's reading of a delay
+    or flapping lag and the :class:`LeadLagAirframe` refit's span, its uncertainty the
+    fit's ``sigma`` and the interval's own added in quadrature.  The interval's is that of
+    a quantity known only to lie in it, a rectangular distribution: half-width / sqrt(3)
+    (GUM, JCGM 100:2008, 4.3.7)."""
+    centre = 0.5 * (pair_reading + airframe_reading)
+    half = 0.5 * abs(airframe_reading - pair_reading)
+    return centre, math.hypot(sigma, half / math.sqrt(3.0)) if math.isfinite(sigma) else sigma
 
 
 def _flipped_objective(objective: CiferObjective) -> CiferObjective:
