@@ -1,0 +1,118 @@
+"""The lags read between two airframe models, on stored blind cases (issue 5).
+
+    python benchmarks/airframe_bracket.py W:case_NNN [W:case_NNN ...] [--out OUT.json]
+    python benchmarks/airframe_bracket.py --from OUT.json
+
+Each ``W`` is a workdir of ``benchmarks/blind_diagnosis.py`` (``--simulate-only`` writes one
+from a seed; the key is read only to score).  Every case is diagnosed again with this
+checkout's ``jaxgwo`` and the default settings, as the blind study diagnoses it, and the
+reports go to ``--out`` (written after each case, so a long run can be read or resumed;
+``--from`` scores such a file without diagnosing).  Where the verdict is the true effect
+and it is one of the lags :data:`jaxgwo._diagnose_which.AIRFRAME_LAGS` reads twice beside a
+structure finding (a ``time_delay`` or an R-50 ``rotor_flapping``), the table gives the truth,
+the pair fit's reading, the lead-lag airframe's, the reported centre and its 1-sigma, and
+counts how often the truth lies inside the bracket and within the quoted 1-sigma and
+2-sigma.  Other cases are listed as skipped, with their verdict.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+
+def _truth(spec: str) -> dict:
+    w, case = spec.split(":")
+    with open(os.path.join(w, "key.json")) as f:
+        key = json.load(f)
+    return key.get("cases", key)[case]
+
+
+def bracket_rows(reports: dict[str, dict], truths: dict[str, dict]) -> tuple[list[dict], list[str]]:
+    """``(rows, skipped)``: one row per case whose right verdict carries both readings, with
+    ``truth``, ``pair``, ``airframe``, ``reported``, ``sigma`` (the parameter's units) and
+    ``z`` (``|reported - truth| / sigma``); ``skipped`` names the rest and why."""
+    from jaxgwo._diagnose_which import AIRFRAME_LAGS
+
+    rows, skipped = [], []
+    for spec, doc in reports.items():
+        k = truths[spec]
+        effect = k["effect"]
+        if effect not in AIRFRAME_LAGS or doc.get("verdict") != effect:
+            skipped.append(f"{spec}: truth {effect}, verdict {doc.get('verdict')}")
+            continue
+        param, _i, stem = AIRFRAME_LAGS[effect]
+        top = doc["ranking"][0]
+        d = top.get("detail") or {}
+        if f"{stem}_airframe_s" not in d:
+            skipped.append(f"{spec}: {effect} named, no airframe reading (J ratio {d.get('airframe_J_ratio')})")
+            continue
+        t, v, s = k["params"][param], top["params"][param], top["params_sigma"][param]
+        rows.append({"case": spec, "effect": effect, "plant": k.get("plant"), "truth": t, "pair": d[f"{stem}_pair_s"],
+                     "airframe": d[f"{stem}_airframe_s"], "reported": v, "sigma": s,
+                     "z": abs(v - t) / s if s > 0 else math.inf, "J_ratio": d.get("airframe_J_ratio")})  # fmt: skip
+    return rows, skipped
+
+
+def report(rows: list[dict], skipped: list[str]) -> str:
+    """The table and the counts, as printed."""
+    L = ["| case | effect | plant | truth ms | pair ms | lead-lag ms | reported ms | 1-sigma ms | error / sigma | J ratio |",
+         "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for r in rows:
+        L.append(f"| {r['case']} | {r['effect']} | {r['plant']} | {1e3 * r['truth']:.1f} | {1e3 * r['pair']:.1f} | "
+                 f"{1e3 * r['airframe']:.1f} | {1e3 * r['reported']:.1f} | {1e3 * r['sigma']:.1f} | {r['z']:.2f} | "
+                 f"{r['J_ratio']:.2f} |")  # fmt: skip
+    n = len(rows)
+    inside = sum(min(r["pair"], r["airframe"]) <= r["truth"] <= max(r["pair"], r["airframe"]) for r in rows)
+    L.append("")
+    L.append(f"{n} cases: truth inside the bracket {inside}, within 1-sigma {sum(r['z'] <= 1 for r in rows)}, "
+             f"within 2-sigma {sum(r['z'] <= 2 for r in rows)}; pair reading below the truth "
+             f"{sum(r['pair'] < r['truth'] for r in rows)}, lead-lag above it {sum(r['airframe'] > r['truth'] for r in rows)}")  # fmt: skip
+    if n:
+        med = lambda xs: sorted(xs)[(len(xs) - 1) // 2]  # noqa: E731  (the lower median)
+        L.append(f"median |error|: reported {1e3 * med([abs(r['reported'] - r['truth']) for r in rows]):.1f} ms, "
+                 f"pair alone {1e3 * med([abs(r['pair'] - r['truth']) for r in rows]):.1f} ms; "
+                 f"median error / sigma {med([r['z'] for r in rows]):.2f}")  # fmt: skip
+    L += [f"skipped {s}" for s in skipped]
+    return "\n".join(L)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("cases", nargs="*", help="W:case_NNN, W a blind-study workdir")
+    ap.add_argument("--out", default=None, help="JSON file the reports are written to (and resumed from)")
+    ap.add_argument("--from", dest="source", default=None, help="score the reports in this file; diagnose nothing")
+    args = ap.parse_args(argv)
+    if bool(args.cases) == bool(args.source):
+        ap.error("give either W:case specs or --from FILE")
+    if args.source:
+        with open(args.source) as f:
+            reports = json.load(f)
+    else:
+        import blind_diagnosis
+        from jaxgwo._diagnose import DiagnoseSettings
+
+        blind_diagnosis._compilation_cache()
+        reports = {}
+        if args.out and os.path.exists(args.out):
+            with open(args.out) as f:
+                reports = json.load(f)
+        for spec in args.cases:
+            if spec not in reports:
+                reports[spec] = blind_diagnosis._diagnose_one(spec.replace(":", os.sep), DiagnoseSettings())
+                print(f"{spec}: verdict {reports[spec]['verdict']} ({reports[spec]['wall_s']:.0f} s)", flush=True)
+                if args.out:
+                    with open(args.out + ".tmp", "w") as f:
+                        json.dump(reports, f)
+                    os.replace(args.out + ".tmp", args.out)
+    print(report(*bracket_rows(reports, {s: _truth(s) for s in reports})))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
