@@ -18,6 +18,7 @@ counts how often the truth lies inside the bracket and within the quoted 1-sigma
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -26,11 +27,17 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 
+@functools.cache
+def _key(workdir: str) -> dict:
+    """A workdir's key, its cases by name (read once per workdir)."""
+    with open(os.path.join(workdir, "key.json")) as f:
+        key = json.load(f)
+    return key.get("cases", key)
+
+
 def _truth(spec: str) -> dict:
     w, case = spec.split(":")
-    with open(os.path.join(w, "key.json")) as f:
-        key = json.load(f)
-    return key.get("cases", key)[case]
+    return _key(w)[case]
 
 
 def bracket_rows(reports: dict[str, dict], truths: dict[str, dict]) -> tuple[list[dict], list[str]]:
@@ -95,6 +102,7 @@ def main(argv=None) -> int:
             reports = json.load(f)
     else:
         import blind_diagnosis
+        from jaxgwo._atomic import atomic_write_text
         from jaxgwo._diagnose import DiagnoseSettings
 
         blind_diagnosis._compilation_cache()
@@ -107,9 +115,7 @@ def main(argv=None) -> int:
                 reports[spec] = blind_diagnosis._diagnose_one(spec.replace(":", os.sep), DiagnoseSettings())
                 print(f"{spec}: verdict {reports[spec]['verdict']} ({reports[spec]['wall_s']:.0f} s)", flush=True)
                 if args.out:
-                    with open(args.out + ".tmp", "w") as f:
-                        json.dump(reports, f)
-                    os.replace(args.out + ".tmp", args.out)
+                    atomic_write_text(args.out, json.dumps(reports))
     print(report(*bracket_rows(reports, {s: _truth(s) for s in reports})))
     return 0
 

@@ -238,9 +238,9 @@ def delay_aware_start(response, objective: CiferObjective, sign: float, delays_s
 class LeadLagAirframe(eqx.Module):
     r"""CIFER cost ``J`` of the paper model times a first-order lead-lag, a low pole pair and
     one lag effect: :math:`G(s)\,\frac{s/(2\pi f_z)+1}{s/(2\pi f_p)+1}\,M(s)\,e^{-s\tau_d}`
-    with ``lag`` ``"time_delay"``, or with the flapping lag inside the rotor term (the cubic
+    with ``effect`` ``"time_delay"``, or with the flapping lag inside the rotor term (the cubic
     :math:`K/((s^2+s/\tau)(\tau_f s+1)+M)` of :func:`jaxgwo._effects.rotor_flapping_response`)
-    and no delay with ``lag`` ``"rotor_flapping"``; ``M`` the ``structural_mode`` factor
+    and no delay with ``effect`` ``"rotor_flapping"``; ``M`` the ``structural_mode`` factor
     held to 0.5-3 Hz.
 
     The airframe family that fits the published R-50 best of those probed
@@ -251,14 +251,15 @@ class LeadLagAirframe(eqx.Module):
     """
 
     cifer: CiferObjective
-    lag: str = eqx.field(static=True, default="time_delay")
+    effect: str = eqx.field(static=True, default="time_delay")
+    """The lag effect beside the airframe (a key of :data:`AIRFRAME_LAGS`)."""
 
     def response(self, x: Float[Array, " 11"]):
         w = self.cifer.w
         one = jnp.ones_like(w)
         lead = jax.lax.complex(one, w / (2.0 * jnp.pi * jnp.exp(x[5])))
         lag = jax.lax.complex(one, w / (2.0 * jnp.pi * jnp.exp(x[6])))
-        flapping = self.lag == "rotor_flapping"
+        flapping = self.effect == "rotor_flapping"
         h = rotor_flapping_response(jnp.exp(x[:5]), w, x[10] if flapping else 0.0) * lead / lag
         h = h * structural_mode_response(w, jnp.exp(x[7]), jnp.exp(x[8]), jnp.exp(x[9]))
         return h if flapping else h * time_delay_response(w, x[10])
