@@ -310,6 +310,49 @@ def test_airframe_bracket_reports_the_centre_only_for_a_lag_that_beats_noise(lag
     assert "airframe models" not in _params_text(kept)
 
 
+@pytest.mark.parametrize("tau_f, read, pair_j, named", [
+    (0.020, 0.005, 1.0, True),     # both read a lag: named, at the head
+    (0.020, 0.0005, 1.0, False),   # the pair fit reads none (below 1 ms)
+    (0.006, 0.003, 1.0, False),    # the lead-lag reads one shorter than the vocabulary's 10 ms
+    (0.020, 0.005, 0.0, False),    # the pair fits J no worse than the lead-lag airframe
+])
+def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau_f, read, pair_j, named):
+    """Noise-free data from the lead-lag airframe with a flapping lag; the pair fit read it
+    ``read``.  Named only where the pair reads at least 1 ms, the lead-lag at least 10 ms,
+    and the lead-lag fits J better; then at the head, beating noise, its lag the bracket."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose import _flapping_between_airframes
+    from jaxgwo._diagnose_which import LinearFit, airframe_lag_refit
+    from jaxgwo._models import ParameterMap
+
+    p = np.abs(np.asarray(MODEL.to_array(), float))
+    resp = _response(lambda w: jnp.asarray(_airframe_numpy(w, p, *_AIRFRAME, 0.0, tau_f)), w_max=120.0)
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    pair = ("structural_mode", "rotor_flapping")
+    z = np.array([0.0, np.log(100.0), read, *np.log([8.0, 0.3, 3.0])])
+    x_fit = np.r_[np.log(p), z]
+    fits = {pair: LinearFit(pair, x_fit, pair_j, {}, {})}
+    lin_from = {pair: (obj, x_fit[:5], x_fit[5:], np.ones(5))}
+    flap = dataclasses.replace(_scored("rotor_flapping", -8.0, False), params={"rotor_flapping": {"tau_f": read}},
+                               sigma={"rotor_flapping": {"tau_f": 0.002}})  # fmt: skip
+    ranking = (_scored("cross_coupling", -7.0, False), flap, _scored("time_delay", -9.0, False))
+    out = _flapping_between_airframes(ranking, fits, lin_from)
+    if not named:
+        assert out == ranking
+        return
+    v_air, _j = airframe_lag_refit(obj, x_fit, "rotor_flapping")
+    assert abs(v_air - tau_f) < 1e-3
+    head = out[0]
+    assert head.effects == ("rotor_flapping",) and head.beats_noise and head.detail["named_between_airframes"] == 1.0
+    assert head.detail["tau_f_pair_s"] == read and head.detail["tau_f_airframe_s"] == pytest.approx(v_air)
+    assert head.params["rotor_flapping"]["tau_f"] == pytest.approx(0.5 * (read + v_air))
+    assert out[1:] == (ranking[0], ranking[2])
+    # nothing changes where a candidate already beats noise, or without the pair's fit
+    passing = (_scored("cross_coupling", 1.0, True), flap)
+    assert _flapping_between_airframes(passing, fits, lin_from) == passing
+    assert _flapping_between_airframes(ranking, {}, lin_from) == ranking
+
+
 @pytest.mark.parametrize("freq, zp, zz", [(6.5, 0.03, 0.25), (5.8, 0.05, 0.2)])
 def test_mode_candidate_recovers_a_mode_the_nominal_servo_absorbed_whole(freq, zp, zz):
     """A mode near the servo's frequency (the default plant's: 6.08 Hz, damping 0.51) is
