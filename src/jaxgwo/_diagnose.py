@@ -2001,11 +2001,13 @@ def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping
     on opposite sides of the truth (:func:`jaxgwo._diagnose_which.airframe_lag_refit`), so
     a lag both read is one the airframe's misfit alone does not make.  Set on development
     seed 9101 (R-50 plants only, 12 cases each of ``none`` and ``rotor_flapping``; records
-    in docs/diagnosis-record.md, session 83): the nine flapping lags answered ``none`` read
+    in docs/diagnosis-record.md, session 83): the seven flapping lags answered ``none`` read
     1.3-7.3 ms on the pair and 11.8-28.6 ms on the lead-lag; the twelve ``none`` cases
-    read at most 0.2 ms on the pair (the lead-lag read up to 10.2 ms, so neither reading
-    alone separates them).  The evidence is the identification records': the summary says
-    the held-out records did not confirm it."""
+    read at most 0.2 ms on the pair (the lead-lag, on the ten answered ``none``, up to
+    10.2 ms: neither reading alone separates them).  Out of sample, the pair read at most
+    0.33 ms on the fourteen ``none`` cases of development seed 9103.  The evidence is the
+    identification records': the summary says the held-out records do not show it beyond
+    noise."""
     ranking = tuple(ranking)
     pair = ("structural_mode", "rotor_flapping")
     if not ranking or ranking[0].beats_noise or pair not in fits:
