@@ -2038,7 +2038,8 @@ def _airframe_bracket(sc: CandidateScore, fits: Mapping, lin_from: Mapping,
     read its 60 ms delay 14.5 ms long, the centre 7 ms), only the ratio is recorded.  Only
     the reported lag and its bound change: the model scored on the held-out records, and
     so the ranking, stays the pair fit's.  Any other candidate, or one without that fit,
-    is returned as it is."""
+    is returned as it is, and so is one whose lead-lag reading is in ``detail`` already;
+    ``refit``, where given, is that refit made already (:func:`_flapping_between_airframes`)."""
     if len(sc.effects) != 1 or sc.effects[0] not in AIRFRAME_LAGS or not sc.beats_noise:
         return sc
     (e,) = sc.effects
