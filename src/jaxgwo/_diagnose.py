@@ -1975,10 +1975,11 @@ def _paper_estimate(sc: CandidateScore, refit: tuple | None) -> CandidateScore:
 
 
 _FLAP_PAIR_READS_S = 1e-3
-"""The least flapping lag the pair fit must read for :func:`_flapping_between_airframes`:
-five times the time-domain box's floor (:data:`jaxgwo._diagnose_which._FLAP_LO_TIME_DOMAIN_S`).
-On the R-50 ``none`` cases of development seed 9101 the pair fit read 0-0.2 ms (its floor);
-on the R-50 flapping lags it answered ``none`` 1.3-7.3 ms."""
+"""The least flapping lag the pair fit must read for :func:`_flapping_between_airframes`,
+set in sample: on the R-50 ``none`` cases of development seed 9101 the pair fit read 0-0.2 ms
+(0 the ``J`` box's floor, 0.2 ms that of the time-domain box,
+:data:`jaxgwo._diagnose_which._FLAP_LO_TIME_DOMAIN_S`); on the R-50 flapping lags it answered
+``none`` 1.3-7.3 ms."""
 _FLAP_FLOOR_S = EFFECTS["rotor_flapping"].ranges[0][0]
 """The vocabulary's shortest flapping lag (10 ms): the lead-lag airframe's reading must reach it."""
 
