@@ -319,9 +319,10 @@ def test_airframe_bracket_reports_the_centre_only_for_a_lag_that_beats_noise(lag
 def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau_f, read, pair_j, named):
     """Noise-free data from the lead-lag airframe with a flapping lag; the pair fit read it
     ``read``.  Named only where the pair reads at least 1 ms, the lead-lag at least 10 ms,
-    and the lead-lag fits J better; then at the head, beating noise, its lag the bracket."""
+    and the lead-lag fits J better; then at the head, beating noise, its lag the lead-lag's
+    reading with the bracket's bound."""
     from jaxgwo._cost import CiferObjective
-    from jaxgwo._diagnose import _flapping_between_airframes
+    from jaxgwo._diagnose import _flapping_between_airframes, _params_text
     from jaxgwo._diagnose_which import LinearFit, airframe_lag_refit
     from jaxgwo._models import ParameterMap
 
@@ -345,7 +346,11 @@ def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau
     head = out[0]
     assert head.effects == ("rotor_flapping",) and head.beats_noise and head.detail["named_between_airframes"] == 1.0
     assert head.detail["tau_f_pair_s"] == read and head.detail["tau_f_airframe_s"] == pytest.approx(v_air)
-    assert head.params["rotor_flapping"]["tau_f"] == pytest.approx(0.5 * (read + v_air))
+    # reported: the lead-lag's reading, with the bracket's 1-sigma (_lead_lag_reading)
+    assert head.params["rotor_flapping"]["tau_f"] == pytest.approx(v_air)
+    bound = math.hypot(0.002, 0.5 * abs(v_air - read) / math.sqrt(3.0))
+    assert head.sigma["rotor_flapping"]["tau_f"] == pytest.approx(bound)
+    assert "the lead-lag airframe's reading" in _params_text(head)
     assert out[1:] == (ranking[0], ranking[2])
     # nothing changes where a candidate already beats noise, or without the pair's fit
     passing = (_scored("cross_coupling", 1.0, True), flap)
