@@ -2,17 +2,22 @@
 
     python benchmarks/airframe_bracket.py W:case_NNN [W:case_NNN ...] [--out OUT.json]
     python benchmarks/airframe_bracket.py --from OUT.json
+    python benchmarks/airframe_bracket.py --stored W [W ...]
 
 Each ``W`` is a workdir of ``benchmarks/blind_diagnosis.py`` (``--simulate-only`` writes one
 from a seed; the key is read only to score).  Every case is diagnosed again with this
 checkout's ``jaxgwo`` and the default settings, as the blind study diagnoses it, and the
 reports go to ``--out`` (written after each case, so a long run can be read or resumed;
-``--from`` scores such a file without diagnosing).  Where the verdict is the true effect
+``--from`` scores such a file without diagnosing, ``--stored`` the diagnoses a workdir
+keeps from its own run).  Where the verdict is the true effect
 and it is one of the lags :data:`jaxgwo._diagnose_which.AIRFRAME_LAGS` reads twice beside a
 structure finding (a ``time_delay`` or an R-50 ``rotor_flapping``), the table gives the truth,
 the pair fit's reading, the lead-lag airframe's, the reported centre and its 1-sigma, and
 counts how often the truth lies inside the bracket and within the quoted 1-sigma and
-2-sigma.  Other cases are listed as skipped, with their verdict.
+2-sigma.  The flapping lags named only because both models read one
+(``named_between_airframes``; reported since session 84 at the lead-lag's reading) are
+scored again both ways, the centre's error beside the lead-lag's under the same 1-sigma,
+whichever the diagnosis reported.  Other cases are listed as skipped, with their verdict.
 """
 
 from __future__ import annotations
@@ -62,7 +67,8 @@ def bracket_rows(reports: dict[str, dict], truths: dict[str, dict]) -> tuple[lis
         t, v, s = k["params"][param], top["params"][param], top["params_sigma"][param]
         rows.append({"case": spec, "effect": effect, "plant": k.get("plant"), "truth": t, "pair": d[f"{stem}_pair_s"],
                      "airframe": d[f"{stem}_airframe_s"], "reported": v, "sigma": s,
-                     "z": abs(v - t) / s if s > 0 else math.inf, "J_ratio": d.get("airframe_J_ratio")})  # fmt: skip
+                     "z": abs(v - t) / s if s > 0 else math.inf, "J_ratio": d.get("airframe_J_ratio"),
+                     "named": bool(d.get("named_between_airframes"))})  # fmt: skip
     return rows, skipped
 
 
@@ -85,8 +91,33 @@ def report(rows: list[dict], skipped: list[str]) -> str:
         L.append(f"median |error|: reported {1e3 * med([abs(r['reported'] - r['truth']) for r in rows]):.1f} ms, "
                  f"pair alone {1e3 * med([abs(r['pair'] - r['truth']) for r in rows]):.1f} ms; "
                  f"median error / sigma {med([r['z'] for r in rows]):.2f}")  # fmt: skip
+    L += _named_lines([r for r in rows if r["named"]])
     L += [f"skipped {s}" for s in skipped]
     return "\n".join(L)
+
+
+def _named_lines(named: list[dict]) -> list[str]:
+    """The lags named between the airframe models scored at the bracket's centre and at the
+    lead-lag's reading, each against the truth under the quoted 1-sigma (ms)."""
+    if not named:
+        return []
+    L = [f"{len(named)} named between the airframe models (reported at the lead-lag's reading since session 84):"]
+    for what, read in (("centre", lambda r: 0.5 * (r["pair"] + r["airframe"])), ("lead-lag", lambda r: r["airframe"])):
+        err = [read(r) - r["truth"] for r in named]
+        z = [abs(e) / r["sigma"] if r["sigma"] > 0 else math.inf for e, r in zip(err, named)]
+        rms = math.sqrt(sum(e * e for e in err) / len(err))
+        L.append(f"  {what}: error {1e3 * min(err):+.1f} to {1e3 * max(err):+.1f} ms, mean {1e3 * sum(err) / len(err):+.1f}, "
+                 f"rms {1e3 * rms:.1f}; within 1-sigma {sum(x <= 1 for x in z)}, within 2-sigma {sum(x <= 2 for x in z)}")  # fmt: skip
+    return L
+
+
+def stored_reports(workdirs: list[str]) -> dict[str, dict]:
+    """The diagnoses each blind-study workdir keeps (its ``diagnoses.json``), as ``W:case``."""
+    reports = {}
+    for w in workdirs:
+        with open(os.path.join(w, "diagnoses.json")) as f:
+            reports |= {f"{w}:{case}": doc for case, doc in json.load(f).items()}
+    return reports
 
 
 def main(argv=None) -> int:
@@ -94,10 +125,14 @@ def main(argv=None) -> int:
     ap.add_argument("cases", nargs="*", help="W:case_NNN, W a blind-study workdir")
     ap.add_argument("--out", default=None, help="JSON file the reports are written to (and resumed from)")
     ap.add_argument("--from", dest="source", default=None, help="score the reports in this file; diagnose nothing")
+    ap.add_argument("--stored", nargs="+", default=None, metavar="W",
+                    help="score the diagnoses these workdirs keep (diagnoses.json); diagnose nothing")
     args = ap.parse_args(argv)
-    if bool(args.cases) == bool(args.source):
-        ap.error("give either W:case specs or --from FILE")
-    if args.source:
+    if sum(map(bool, (args.cases, args.source, args.stored))) != 1:
+        ap.error("give one of: W:case specs, --from FILE, --stored W [W ...]")
+    if args.stored:
+        reports = stored_reports(args.stored)
+    elif args.source:
         with open(args.source) as f:
             reports = json.load(f)
     else:

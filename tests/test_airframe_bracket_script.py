@@ -52,3 +52,26 @@ def test_from_file_scores_without_diagnosing(mod, tmp_path, capsys):
     assert "0 cases" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         mod.main([])
+
+
+def test_named_lags_are_scored_at_the_centre_and_at_the_lead_lag(mod, tmp_path, capsys):
+    """A flapping lag named between the airframe models: both readings scored against the
+    truth under the quoted 1-sigma, read from a workdir's stored diagnoses (``--stored``)."""
+    key = {"case_000": {"effect": "rotor_flapping", "plant": "r50", "params": {"tau_f": 0.020}},
+           "case_001": {"effect": "rotor_flapping", "plant": "r50", "params": {"tau_f": 0.015}}}  # fmt: skip
+    (tmp_path / "key.json").write_text(json.dumps(key))
+    named = {"tau_f_pair_s": 0.002, "tau_f_airframe_s": 0.024, "airframe_J_ratio": 0.7, "named_between_airframes": 1.0}
+    stored = {"case_000": _doc("rotor_flapping", "tau_f", 0.024, 0.005, named),  # centre 13 ms, lead-lag 24 ms
+              "case_001": _doc("rotor_flapping", "tau_f", 0.016, 0.004,  # beat noise: not scored twice
+                               {"tau_f_pair_s": 0.010, "tau_f_airframe_s": 0.022, "airframe_J_ratio": 0.8})}  # fmt: skip
+    (tmp_path / "diagnoses.json").write_text(json.dumps(stored))
+    reports = mod.stored_reports([str(tmp_path)])
+    rows, _skipped = mod.bracket_rows(reports, {s: mod._truth(s) for s in reports})
+    assert [r["named"] for r in rows] == [True, False]
+    text = mod.report(rows, [])
+    assert "1 named between the airframe models" in text
+    # centre (2 + 24) / 2 = 13 ms: 7 ms low, 1.4 sigma; lead-lag 4 ms long, 0.8 sigma
+    assert "centre: error -7.0 to -7.0 ms, mean -7.0, rms 7.0; within 1-sigma 0, within 2-sigma 1" in text
+    assert "lead-lag: error +4.0 to +4.0 ms, mean +4.0, rms 4.0; within 1-sigma 1, within 2-sigma 1" in text
+    assert mod.main(["--stored", str(tmp_path)]) == 0
+    assert "2 cases" in capsys.readouterr().out

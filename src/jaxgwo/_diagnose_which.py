@@ -304,7 +304,8 @@ def airframe_lag_refit(objective: CiferObjective, x_fit: np.ndarray,
     did on the six of fresh seeds 241-263, checked after the rule was set.  The pair reads
     an R-50 flapping lag short too (0.31-0.68 of the truth on the six named in fresh draws
     593-615); ``diagnose`` reports the bracket's centre (:func:`bracketed_lag`) of
-    either."""
+    either, but the lead-lag's reading of a flapping lag it names only because both read
+    one (``jaxgwo._diagnose._lead_lag_reading``)."""
     from scipy.optimize import least_squares
 
     _param, i, _stem = AIRFRAME_LAGS[effect]
