@@ -314,11 +314,12 @@ def test_airframe_bracket_reports_the_centre_only_for_a_lag_that_beats_noise(lag
     (0.020, 0.005, 1.0, True),     # both read a lag: named, at the head
     (0.020, 0.0005, 1.0, False),   # the pair fit reads none (below 1 ms)
     (0.006, 0.003, 1.0, False),    # the lead-lag reads one shorter than the vocabulary's 10 ms
+    (0.095, 0.005, 1.0, False),    # ... or longer than its 60 ms (read 95 ms)
     (0.020, 0.005, 0.0, False),    # the pair fits J no worse than the lead-lag airframe
 ])
 def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau_f, read, pair_j, named):
     """Noise-free data from the lead-lag airframe with a flapping lag; the pair fit read it
-    ``read``.  Named only where the pair reads at least 1 ms, the lead-lag at least 10 ms,
+    ``read``.  Named only where the pair reads at least 1 ms, the lead-lag 10-60 ms,
     and the lead-lag fits J better; then at the head, beating noise, its lag the lead-lag's
     reading with the bracket's bound."""
     from jaxgwo._cost import CiferObjective
