@@ -782,7 +782,7 @@ class Diagnosis:
                 lines.append(
                     "The +- counts random error and, for the model-form bias of that extra pole pair (an "
                     "approximation of the airframe), the spread between it and a lead-lag times a low pole pair: "
-                    "on the blind study's R-50 plants the pair read every delay and flapping lag short and the "
+                    "on the blind study's R-50 plants the pair read nearly every delay and flapping lag short and the "
                     "lead-lag long."
                 )
             elif self.structure is not None:
