@@ -112,11 +112,15 @@ def _named_lines(named: list[dict]) -> list[str]:
 
 
 def stored_reports(workdirs: list[str]) -> dict[str, dict]:
-    """The diagnoses each blind-study workdir keeps (its ``diagnoses.json``), as ``W:case``."""
+    """The diagnoses each blind-study workdir keeps (its ``diagnoses.json``), as ``W:case``;
+    each workdir read by :func:`blind_pool.read_workdir`, which refuses one never diagnosed
+    or diagnosed in part, saying which."""
+    import blind_pool
+
     reports = {}
     for w in workdirs:
-        with open(os.path.join(w, "diagnoses.json")) as f:
-            reports |= {f"{w}:{case}": doc for case, doc in json.load(f).items()}
+        _draw, _key, results = blind_pool.read_workdir(w)
+        reports |= {f"{w}:{case}": doc for case, doc in results.items()}
     return reports
 
 

@@ -64,7 +64,10 @@ def test_named_lags_are_scored_at_the_centre_and_at_the_lead_lag(mod, tmp_path, 
     stored = {"case_000": _doc("rotor_flapping", "tau_f", 0.024, 0.005, named),  # centre 13 ms, lead-lag 24 ms
               "case_001": _doc("rotor_flapping", "tau_f", 0.016, 0.004,  # beat noise: not scored twice
                                {"tau_f_pair_s": 0.010, "tau_f_airframe_s": 0.022, "airframe_J_ratio": 0.8})}  # fmt: skip
+    with pytest.raises(SystemExit, match="no diagnoses.json"):  # simulated, never diagnosed
+        mod.stored_reports([str(tmp_path)])
     (tmp_path / "diagnoses.json").write_text(json.dumps(stored))
+    (tmp_path / "draw.json").write_text(json.dumps({"seed": 1}))
     reports = mod.stored_reports([str(tmp_path)])
     rows, _skipped = mod.bracket_rows(reports, {s: mod._truth(s) for s in reports})
     assert [r["named"] for r in rows] == [True, False]
