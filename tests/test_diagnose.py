@@ -310,18 +310,22 @@ def test_airframe_bracket_reports_the_centre_only_for_a_lag_that_beats_noise(lag
     assert "airframe models" not in _params_text(kept)
 
 
-@pytest.mark.parametrize("tau_f, read, pair_j, named", [
-    (0.020, 0.005, 1.0, True),     # both read a lag: named, at the head
-    (0.020, 0.0005, 1.0, False),   # the pair fit reads none (below 1 ms)
-    (0.006, 0.003, 1.0, False),    # the lead-lag reads one shorter than the vocabulary's 10 ms
-    (0.095, 0.005, 1.0, False),    # ... or longer than its 60 ms (read 95 ms)
-    (0.020, 0.005, 0.0, False),    # the pair fits J no worse than the lead-lag airframe
+@pytest.mark.parametrize("tau_f, read, pair_j, pair_sigma, named", [
+    (0.020, 0.005, 1.0, 0.002, True),     # both read a lag: named, at the head
+    (0.020, 0.0005, 1.0, 0.002, False),   # the pair fit reads none (below 1 ms)
+    (0.006, 0.003, 1.0, 0.002, False),    # the lead-lag reads one shorter than the vocabulary's 10 ms
+    (0.095, 0.005, 1.0, 0.002, False),    # ... or longer than its 60 ms (read 95 ms)
+    (0.020, 0.005, 0.0, 0.002, False),    # the pair fits J no worse than the lead-lag airframe
+    (0.020, 0.005, 1.0, 0.012, False),    # the reading within 2 of its bound's sigma of zero (20 +- 12.7 ms)
+    (0.020, 0.005, 1.0, math.nan, False),  # ... or the bound unknown
+    (0.020, 0.005, 1.0, 0.008, True),     # 20 +- 9.1 ms: 2.2 sigma, named
 ])
-def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau_f, read, pair_j, named):
+def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau_f, read, pair_j, pair_sigma, named):
     """Noise-free data from the lead-lag airframe with a flapping lag; the pair fit read it
-    ``read``.  Named only where the pair reads at least 1 ms, the lead-lag 10-60 ms,
-    and the lead-lag fits J better; then at the head, beating noise, its lag the lead-lag's
-    reading with the bracket's bound."""
+    ``read`` +- ``pair_sigma``.  Named only where the pair reads at least 1 ms, the lead-lag
+    10-60 ms, the lead-lag fits J better, and its reading lies at least twice the bracket's
+    1-sigma above zero; then at the head, beating noise, its lag the lead-lag's reading
+    with that bound."""
     from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose import _flapping_between_airframes, _params_text
     from jaxgwo._diagnose_which import LinearFit, airframe_lag_refit
@@ -336,7 +340,7 @@ def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau
     fits = {pair: LinearFit(pair, x_fit, pair_j, {}, {})}
     lin_from = {pair: (obj, x_fit[:5], x_fit[5:], np.ones(5))}
     flap = dataclasses.replace(_scored("rotor_flapping", -8.0, False), params={"rotor_flapping": {"tau_f": read}},
-                               sigma={"rotor_flapping": {"tau_f": 0.002}})  # fmt: skip
+                               sigma={"rotor_flapping": {"tau_f": pair_sigma}})  # fmt: skip
     ranking = (_scored("cross_coupling", -7.0, False), flap, _scored("time_delay", -9.0, False))
     out = _flapping_between_airframes(ranking, fits, lin_from)
     if not named:
@@ -349,8 +353,8 @@ def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau
     assert head.detail["tau_f_pair_s"] == read and head.detail["tau_f_airframe_s"] == pytest.approx(v_air)
     # reported: the lead-lag's reading, with the bracket's 1-sigma (_lead_lag_reading)
     assert head.params["rotor_flapping"]["tau_f"] == pytest.approx(v_air)
-    bound = math.hypot(0.002, 0.5 * abs(v_air - read) / math.sqrt(3.0))
-    assert head.sigma["rotor_flapping"]["tau_f"] == pytest.approx(bound)
+    bound = math.hypot(pair_sigma, 0.5 * abs(v_air - read) / math.sqrt(3.0))
+    assert head.sigma["rotor_flapping"]["tau_f"] == pytest.approx(bound) and v_air >= 2.0 * bound
     assert "the lead-lag airframe's reading" in _params_text(head)
     assert out[1:] == (ranking[0], ranking[2])
     # nothing changes where a candidate already beats noise, or without the pair's fit

@@ -1986,6 +1986,12 @@ set in sample: on the R-50 ``none`` cases of development seed 9101 the pair fit 
 ``none`` 1.3-7.3 ms."""
 _FLAP_RANGE_S = EFFECTS["rotor_flapping"].ranges[0]
 """The vocabulary's flapping lags (10-60 ms): the lead-lag airframe's reading must lie among them."""
+_FLAP_NAMED_Z = 2.0
+"""How many of its own quoted 1-sigma (the bracket's) the lag :func:`_flapping_between_airframes`
+names must lie above zero.  Set in session 85 on fresh seed 633's case_041, an R-50 ``none``
+named a 11.5 +- 6.9 ms lag (1.7 sigma; the pair fit's own reading 6.8 +- 6.8 ms): the twenty
+lags named before (development seeds 9105 and 9107, fresh seeds 621-633, one of them 625's
+resonance) stood 3.1-4.1 of their sigma above zero."""
 
 
 def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping,
@@ -1995,8 +2001,10 @@ def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping
     fit's reading at least :data:`_FLAP_PAIR_READS_S`, off its floor, and the
     :class:`jaxgwo._diagnose_which.LeadLagAirframe` refit's
     (:func:`jaxgwo._diagnose_which.airframe_lag_refit`) among the vocabulary's lags,
-    :data:`_FLAP_RANGE_S`, with ``J`` below the pair fit's.  The candidate then beats
-    noise at the head, its lag the lead-lag's reading with the two readings' bracket's
+    :data:`_FLAP_RANGE_S`, with ``J`` below the pair fit's, and that reading at least
+    :data:`_FLAP_NAMED_Z` of the two readings' bracket's 1-sigma above zero (not where that
+    1-sigma is unknown).  The candidate then beats
+    noise at the head, its lag the lead-lag's reading with that
     1-sigma (:func:`_airframe_bracket`, then :func:`_lead_lag_reading`; ``detail``:
     ``tau_f_pair_s``, ``tau_f_airframe_s``, ``airframe_J_ratio`` and
     ``named_between_airframes``); otherwise ``ranking`` is unchanged.
@@ -2016,7 +2024,10 @@ def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping
     noise.  The lead-lag's reading is held to the vocabulary's top as well as its floor
     since session 84, as the summary had said: fresh seed 625's case_071, an R-50
     resonance (11.3 Hz), read 2.2 ms on the pair and 63.1 ms on the lead-lag and was
-    named a flapping lag; the seventeen lags named before read at most 37.2 ms."""
+    named a flapping lag; the seventeen lags named before read at most 37.2 ms.  A lag
+    named must stand out from its own bound since session 85 (:data:`_FLAP_NAMED_Z`): fresh
+    seed 633's case_041, an R-50 ``none``, read 6.8 ms on the pair, whose fit left it
+    +-6.8 ms, and 11.5 ms on the lead-lag, and was named."""
     ranking = tuple(ranking)
     pair = ("structural_mode", "rotor_flapping")
     if not ranking or ranking[0].beats_noise or pair not in fits:
@@ -2028,8 +2039,10 @@ def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping
     lo, hi = _FLAP_RANGE_S
     if refit is None or not (lo <= refit[0] <= hi and refit[1] < fits[pair].cost_J):
         return ranking
-    named = _airframe_bracket(dataclasses.replace(sc, beats_noise=True), fits, lin_from, refit)
-    return (_lead_lag_reading(named), *(c for c in ranking if c is not sc))
+    named = _lead_lag_reading(_airframe_bracket(dataclasses.replace(sc, beats_noise=True), fits, lin_from, refit))
+    if not named.params["rotor_flapping"]["tau_f"] >= _FLAP_NAMED_Z * named.sigma["rotor_flapping"]["tau_f"]:
+        return ranking
+    return (named, *(c for c in ranking if c is not sc))
 
 
 def _lead_lag_reading(named: CandidateScore) -> CandidateScore:
