@@ -1989,7 +1989,7 @@ _FLAP_RANGE_S = EFFECTS["rotor_flapping"].ranges[0]
 _FLAP_NAMED_Z = 2.0
 """How many of its own quoted 1-sigma (the bracket's) the lag :func:`_flapping_between_airframes`
 names must lie above zero.  Set in session 85 on fresh seed 633's case_041, an R-50 ``none``
-named a 11.5 +- 6.9 ms lag (1.7 sigma; the pair fit's own reading 6.8 +- 6.8 ms): the twenty
+named an 11.5 +- 6.9 ms lag (1.7 sigma; the pair fit's own reading 6.8 +- 6.8 ms): the twenty-one
 lags named before (development seeds 9105 and 9107, fresh seeds 621-633, one of them 625's
 resonance) stood 3.1-4.1 of their sigma above zero."""
 
