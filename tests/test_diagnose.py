@@ -314,6 +314,7 @@ def test_airframe_bracket_reports_the_centre_only_for_a_lag_that_beats_noise(lag
     (0.020, 0.005, 1.0, 0.002, True),     # both read a lag: named, at the head
     (0.020, 0.0005, 1.0, 0.002, False),   # the pair fit reads none (below 1 ms)
     (0.006, 0.003, 1.0, 0.002, False),    # the lead-lag reads one shorter than the vocabulary's 10 ms
+    (0.012, 0.005, 1.0, 0.002, False),    # ... or than 13 ms (read 12 ms, 4.2 sigma)
     (0.095, 0.005, 1.0, 0.002, False),    # ... or longer than its 60 ms (read 95 ms)
     (0.020, 0.005, 0.0, 0.002, False),    # the pair fits J no worse than the lead-lag airframe
     (0.020, 0.005, 1.0, 0.012, False),    # the reading within 2 of its bound's sigma of zero (20 +- 12.7 ms)
@@ -323,7 +324,7 @@ def test_airframe_bracket_reports_the_centre_only_for_a_lag_that_beats_noise(lag
 def test_flapping_lag_both_airframes_read_is_named_where_nothing_beats_noise(tau_f, read, pair_j, pair_sigma, named):
     """Noise-free data from the lead-lag airframe with a flapping lag; the pair fit read it
     ``read`` +- ``pair_sigma``.  Named only where the pair reads at least 1 ms, the lead-lag
-    10-60 ms, the lead-lag fits J better, and its reading lies at least twice the bracket's
+    13-60 ms, the lead-lag fits J better, and its reading lies at least twice the bracket's
     1-sigma above zero; then at the head, beating noise, its lag the lead-lag's reading
     with that bound."""
     from jaxgwo._cost import CiferObjective

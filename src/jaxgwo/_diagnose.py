@@ -1986,6 +1986,16 @@ set in sample: on the R-50 ``none`` cases of development seed 9101 the pair fit 
 ``none`` 1.3-7.3 ms."""
 _FLAP_RANGE_S = EFFECTS["rotor_flapping"].ranges[0]
 """The vocabulary's flapping lags (10-60 ms): the lead-lag airframe's reading must lie among them."""
+_FLAP_LEAD_LAG_READS_S = 13e-3
+"""The least lag the lead-lag airframe must read for :func:`_flapping_between_airframes`
+(within :data:`_FLAP_RANGE_S`).  Set in session 86, in sample, on fresh seed 639's case_004, an
+R-50 ``none`` named at 10.6 +- 3.1 ms (3.4 sigma, so :data:`_FLAP_NAMED_Z` let it through):
+over the stored diagnoses of fresh seeds 621-641 and development seeds 9101-9109, the 46 R-50
+flapping lags (truths 10.0-32.1 ms) with a lead-lag reading read 15.4 ms or more, but for
+one read below the vocabulary (629's case_013, 9.2 ms for 12.3); the four other cases read in
+10-13 ms were the two R-50 ``none`` the rule named (10.6 and 633's case_041, 11.5 ms), an R-50
+resonance (10.9) and a gyro filter (10.0).  The lead-lag reads a short lag long (10.0-11.1 ms
+at 15.4-24.4), so a reading at the vocabulary's floor is the airframe's misfit, not a lag."""
 _FLAP_NAMED_Z = 2.0
 """How many of its own quoted 1-sigma (the bracket's) the lag :func:`_flapping_between_airframes`
 names must lie above zero.  Set in session 85 on fresh seed 633's case_041, an R-50 ``none``
@@ -2001,7 +2011,8 @@ def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping
     fit's reading at least :data:`_FLAP_PAIR_READS_S`, off its floor, and the
     :class:`jaxgwo._diagnose_which.LeadLagAirframe` refit's
     (:func:`jaxgwo._diagnose_which.airframe_lag_refit`) among the vocabulary's lags,
-    :data:`_FLAP_RANGE_S`, with ``J`` below the pair fit's, and that reading at least
+    :data:`_FLAP_RANGE_S`, and at least :data:`_FLAP_LEAD_LAG_READS_S`, with ``J`` below the
+    pair fit's, and that reading at least
     :data:`_FLAP_NAMED_Z` of the two readings' bracket's 1-sigma above zero (not where that
     1-sigma is unknown).  The candidate then beats
     noise at the head, its lag the lead-lag's reading with that
@@ -2027,7 +2038,10 @@ def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping
     named a flapping lag; the seventeen lags named before read at most 37.2 ms.  A lag
     named must stand out from its own bound since session 85 (:data:`_FLAP_NAMED_Z`): fresh
     seed 633's case_041, an R-50 ``none``, read 6.8 ms on the pair, whose fit left it
-    +-6.8 ms, and 11.5 ms on the lead-lag, and was named."""
+    +-6.8 ms, and 11.5 ms on the lead-lag, and was named.  The lead-lag must read 13 ms
+    or more since session 86 (:data:`_FLAP_LEAD_LAG_READS_S`): fresh seed 639's case_004,
+    an R-50 ``none``, read 1.2 ms on the pair and 10.6 +- 3.1 ms on the lead-lag, and was
+    named."""
     ranking = tuple(ranking)
     pair = ("structural_mode", "rotor_flapping")
     if not ranking or ranking[0].beats_noise or pair not in fits:
@@ -2037,7 +2051,7 @@ def _flapping_between_airframes(ranking: Sequence[CandidateScore], fits: Mapping
         return ranking
     refit = airframe_lag_refit(lin_from[pair][0], fits[pair].x, "rotor_flapping")
     lo, hi = _FLAP_RANGE_S
-    if refit is None or not (lo <= refit[0] <= hi and refit[1] < fits[pair].cost_J):
+    if refit is None or not (max(lo, _FLAP_LEAD_LAG_READS_S) <= refit[0] <= hi and refit[1] < fits[pair].cost_J):
         return ranking
     named = _lead_lag_reading(_airframe_bracket(dataclasses.replace(sc, beats_noise=True), fits, lin_from, refit))
     if not named.params["rotor_flapping"]["tau_f"] >= _FLAP_NAMED_Z * named.sigma["rotor_flapping"]["tau_f"]:
