@@ -1995,7 +1995,9 @@ flapping lags (truths 10.0-32.1 ms) with a lead-lag reading read 15.4 ms or more
 one read below the vocabulary (629's case_013, 9.2 ms for 12.3); the four other cases read in
 10-13 ms were the two R-50 ``none`` the rule named (10.6 and 633's case_041, 11.5 ms), an R-50
 resonance (10.9) and a gyro filter (10.0).  The lead-lag reads a short lag long (10.0-11.1 ms
-at 15.4-24.4), so a reading at the vocabulary's floor is the airframe's misfit, not a lag."""
+at 15.4-24.4), so a reading at the vocabulary's floor is more likely the airframe's misfit
+than a lag.  Its cost: of the seven lags of development seed 9101 the rule was set on
+(session 83's probe, not stored) one read 11.8 ms and would no longer be named."""
 _FLAP_NAMED_Z = 2.0
 """How many of its own quoted 1-sigma (the bracket's) the lag :func:`_flapping_between_airframes`
 names must lie above zero.  Set in session 85 on fresh seed 633's case_041, an R-50 ``none``
