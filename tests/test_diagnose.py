@@ -2146,6 +2146,9 @@ def test_unconfirmed_candidates_are_named_beside_a_none_verdict_only():
     # a broad pair refused as no resonance (_broad_pairs_refused) is no lead either
     broad = dataclasses.replace(ranking[3], detail={"broad_pair_no_resonance": 1.0})
     assert _unconfirmed((*ranking[:3], broad, ranking[4]), "none", 1e-3) == ("rate_limit",)
+    # nor is an effect switched off (_switched_off_refused): its J gain is its base's
+    off = dataclasses.replace(ranking[1], detail={"effect_switched_off": 1.0})
+    assert _unconfirmed((ranking[0], off, *ranking[2:]), "none", 1e-3) == ("structural_mode",)
 
 
 def _check_json_report_schema(d):
@@ -2671,6 +2674,50 @@ def test_a_broad_pair_does_not_beat_noise_as_a_resonance():
     failing = (lag, delay, cc, mode(-3.0, 0.5, ok=False))
     assert _broad_pairs_refused(failing) == failing
     assert _broad_pairs_refused([]) == ()
+
+
+def test_an_effect_switched_off_does_not_beat_noise():
+    """Fresh seed 627's case_048, an R-50 resonance: on top of the structure finding a
+    flapping lag and a delay of exactly zero (3.9e-25 s and 2.5e-25 s) both cut ``J`` 16.9 ->
+    6.8 (the base refitted) and beat noise, and the lag was the verdict.  Switched off, an
+    effect's model is its base's: both go among the failing candidates and nothing is
+    named.  A delay or lag that is not zero, one scored by its time-domain refit, a gyro
+    filter (whose neutral value is no cutoff at all) and a resonance keep their places."""
+    from jaxgwo._diagnose import _switched_off, _switched_off_refused
+
+    def cand(effect, params, score, ok=True, detail=None):
+        return dataclasses.replace(_scored(effect, score, ok), params={effect: params}, detail=dict(detail or {}))
+
+    flap = cand("rotor_flapping", {"tau_f": 3.9e-25}, 0.738)
+    delay = cand("time_delay", {"delay_s": 2.5e-25}, 0.713)
+    mode = cand("structural_mode", {"freq_hz": 15.35, "zeta_p": 0.034, "zeta_z": 1.04}, -9.006, ok=False)
+    gyro = cand("sensor_lag", {"cutoff_hz": 100.0}, -9.352, ok=False)
+    out = _switched_off_refused([flap, delay, mode, gyro])
+    # by score among the failing: -9.006, 0.738 - 10, 0.713 - 10, -9.352
+    assert [c.effects[0] for c in out] == ["structural_mode", "rotor_flapping", "time_delay", "sensor_lag"]
+    assert not any(c.beats_noise for c in out)
+    assert out[1].detail == {"effect_switched_off": 1.0} and out[1].score == pytest.approx(0.738 - 10.0)
+    assert out[2].detail == {"effect_switched_off": 1.0} and out[2].score == pytest.approx(0.713 - 10.0)
+    # a delay the vocabulary could hold (10 ms) or just above the threshold (0.1 us) is no
+    # switched-off one; below it (0.05 us of a range up to 80 ms) it is
+    for value, off in ((0.010, False), (1e-7, False), (5e-8, True), (0.0, True), (-0.0, True)):
+        assert _switched_off(cand("time_delay", {"delay_s": value}, 1.0)) is off
+    # a coupling gain of zero is off too; a gyro filter and a resonance are never judged here
+    assert _switched_off(cand("cross_coupling", {"gain": 0.0}, 1.0))
+    assert not _switched_off(cand("cross_coupling", {"gain": 0.05}, 1.0))
+    assert not _switched_off(cand("sensor_lag", {"cutoff_hz": 1e30}, 1.0))
+    assert not _switched_off(cand("structural_mode", {"freq_hz": 10.0, "zeta_p": 1.0, "zeta_z": 1.0}, 1.0))
+    # nonlinearities are scored in the time domain: not judged either
+    assert not _switched_off(cand("saturation", {"limit": 0.0}, 1.0))
+    # passing ones that are not off keep their order, and so does a refit's
+    live = cand("time_delay", {"delay_s": 0.03}, 1.2)
+    by_refit = cand("rotor_flapping", {"tau_f": 0.0}, 1.0, detail={"time_domain_path": 1.0})
+    ranking = (live, by_refit, mode)
+    assert _switched_off_refused(ranking) == ranking
+    assert _switched_off_refused([]) == ()
+    out = _switched_off_refused([flap, live, mode])
+    assert [c.effects[0] for c in out] == ["time_delay", "structural_mode", "rotor_flapping"]
+    assert out[0] is live and [c.beats_noise for c in out] == [True, False, False]
 
 
 def test_a_time_domain_refit_stands_in_only_where_it_passes_and_j_has_no_passing_fit_for_it():

@@ -912,11 +912,12 @@ def _unconfirmed(ranking: Sequence[CandidateScore], verdict: str, alpha: float) 
     case_003, 8.3 Hz: R^2 0.987 -> 0.986, and ``J`` on those records 6.6 -> 23), and with a
     rate limit refitted to within 4 % of the true rate (seed-131 case_003: R^2 0.991 ->
     0.979).  The summary names such a candidate instead of keeping it behind ``none``; not
-    a broad pair (:func:`_broad_pairs_refused`), which was refused as no resonance at all."""
+    a broad pair (:func:`_broad_pairs_refused`), which was refused as no resonance at all,
+    nor an effect switched off (:func:`_switched_off_refused`), whose evidence is its base's."""
     if verdict != "none":
         return ()
     return tuple(c.effects[0] for c in ranking if not c.beats_noise and c.train_p < alpha
-                 and not c.detail.get("broad_pair_no_resonance"))
+                 and not c.detail.get("broad_pair_no_resonance") and not c.detail.get("effect_switched_off"))
 
 
 _SAME_INPUT_OUTPUT = {"sensor_lag": "rotor_flapping", "rotor_flapping": "sensor_lag"}
@@ -1552,6 +1553,47 @@ def _broad_pairs_refused(ranking: Sequence[CandidateScore]) -> tuple[CandidateSc
     broad = [c for c in ranking if c.beats_noise and c.effects == ("structural_mode",)
              and _broad_pair(c.params["structural_mode"])]
     return _demoted(ranking, broad, "broad_pair_no_resonance") if broad else ranking
+
+
+_NEUTRAL_REL = 1e-6
+"""How close to zero, relative to the largest magnitude of the vocabulary's range, an effect
+parameter whose neutral value is zero counts as switched off
+(:func:`_switched_off_refused`)."""
+
+
+def _switched_off(c: CandidateScore) -> bool:
+    """Whether ``c`` is one linear effect, scored on its ``J`` fit (not its time-domain
+    refit), whose every parameter sits at its neutral value zero (within
+    :data:`_NEUTRAL_REL` of the vocabulary's range): a delay of 0 s, a flapping lag of 0 s,
+    a coupling gain of 0.  Effects whose neutral value is not zero (a gyro filter's
+    infinite cutoff, a resonance's cancelled pair) are not judged here."""
+    if len(c.effects) != 1 or c.detail.get("time_domain_path"):
+        return False
+    spec = EFFECTS[c.effects[0]]
+    values = c.params.get(spec.name, {})
+    if not spec.linear or any(v != 0.0 for v in spec.neutral) or set(values) != set(spec.params):
+        return False
+    return all(abs(float(values[q])) <= _NEUTRAL_REL * max(abs(lo), abs(hi))
+               for q, (lo, hi) in zip(spec.params, spec.ranges))
+
+
+def _switched_off_refused(ranking: Sequence[CandidateScore]) -> tuple[CandidateScore, ...]:
+    """``ranking`` (best first) with every candidate that beats noise with its effect
+    switched off (:func:`_switched_off`) no longer beating noise (``detail``'s
+    ``effect_switched_off``, its score less 10, placed among the failing ones; the passing
+    ones keep their order).  Such a candidate's model is its base's: the ``J`` it gains
+    over the base is the base refitted, not the effect, so it is no evidence for the effect.
+
+    Seen on R-50 resonances, where the refit on top of the structure finding lowers the
+    base's ``J`` on its own: on the stored diagnoses of fresh draws 621-643 and development
+    seeds 9101-9109, seven R-50 resonances had a flapping lag and a delay of exactly zero
+    (1e-16 s or less) beat noise, each pair at one ``J`` (16.9 -> 6.8 on 627's case_048, 41.8
+    -> 8.8 on 627's case_045); six ranked them below the resonance, and 627's case_048, whose
+    resonance fit had its zero damping off the vocabulary's box (1.04), was called
+    ``rotor_flapping`` on them.  No other candidate beat noise switched off there."""
+    ranking = tuple(ranking)
+    off = [c for c in ranking if c.beats_noise and _switched_off(c)]
+    return _demoted(ranking, off, "effect_switched_off") if off else ranking
 
 
 def _time_domain_refit(null, null_spec, val_predicted, val_measured, base_r2: float) -> TimeDomainRefit:
@@ -3080,7 +3122,7 @@ def diagnose(
         ranking = tuple(sorted(scored, key=_best_first))  # no lag_over_delay on top of the mode: see its docstring
         if settings.alpha_lag_on_structure:  # a delay below the vocabulary's is a lag's
             ranking = _lag_over_short_delay(ranking)
-    ranking = _gyro_path_order(_broad_pairs_refused(ranking), gyro, settings.alpha)
+    ranking = _gyro_path_order(_broad_pairs_refused(_switched_off_refused(ranking)), gyro, settings.alpha)
     ranking = _failing_by_evidence(_nonlinearity_by_j(ranking, settings.nonlinearity_by_j),
                                    _gyro_filter_held(gyro, settings.alpha) if gyro.tested else None)
     if structure is not None and settings.flapping_between_airframes:
