@@ -650,6 +650,39 @@ def _mode_np(w, freq_hz, zeta_p, zeta_z):
     return (wn * wn - w * w + 2j * zeta_z * wn * w) / (wn * wn - w * w + 2j * zeta_p * wn * w)
 
 
+def _plain_j(obj, x_paper, modes):
+    """``J`` in plain NumPy of the paper model ``exp(x_paper)`` (sign-normalised) times the pole
+    pairs ``modes`` against ``obj``'s measured response (dB and wrapped phase errors)."""
+    sign = float(np.sign(float(MODEL.K)))
+    w = np.asarray(obj.w)
+    h = sign * np.asarray(PaperModel.from_array(jnp.asarray(np.exp(x_paper) * np.array([sign, 1, 1, 1, 1])))
+                          .frequency_response(w))  # fmt: skip
+    for m in modes:
+        h = h * _mode_np(w, *m)
+    e_db = 20 * np.log10(np.abs(h)) - np.asarray(obj.magnitude_db)
+    e_ph = (np.rad2deg(np.angle(h)) - np.asarray(obj.phase_deg) + 180.0) % 360.0 - 180.0
+    return 20.0 / float(obj.n) * np.sum(np.asarray(obj.weight) * (e_db**2 + float(obj.phase_weight) * e_ph**2))
+
+
+def _pair_and_resonance_structure(pair, res, **kw):
+    """Noise-free: the measured response of the paper model times ``pair`` times ``res``,
+    its CIFER objective, and the structure step's one-slot fit there (its ``(freq_hz,
+    zeta_p, zeta_z)`` too)."""
+    from jaxgwo._cost import CiferObjective
+    from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO_STRUCTURE, fit_linear_candidates
+    from jaxgwo._models import ParameterMap
+
+    sign = float(np.sign(float(MODEL.K)))
+    resp = _response(lambda w: sign * MODEL.frequency_response(w) * _mode_np(np.asarray(w), *pair)
+                     * _mode_np(np.asarray(w), *res))  # fmt: skip
+    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
+    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
+    (st,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], jax.random.key(3), z_hi=_Z_HI_STRUCTURE,
+                                  z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
+    bent = tuple(st.params["structural_mode"][k] for k in ("freq_hz", "zeta_p", "zeta_z"))
+    return obj, st, bent
+
+
 def test_a_resonance_is_fitted_beside_a_held_pole_pair():
     """Noise-free: the paper model times an airframe pair (1.7 Hz, zeros 0.7) times a 6 Hz
     resonance.  ``with_fixed_modes`` holds the pair: ``J`` of a model under it equals a
@@ -671,13 +704,7 @@ def test_a_resonance_is_fitted_beside_a_held_pole_pair():
     # J at a point off the truth, against the plain formula (dB and wrapped phase errors)
     x = np.r_[x_nom + np.array([0.1, -0.05, 0.08, 0.1, -0.1]), 0.0, np.log(100.0), 0.0, np.log([8.0, 0.06, 0.2])]
     got = float(AugmentedCifer.from_cifer(held, _active_mask(["structural_mode"]))(jnp.asarray(x)))
-    p = np.exp(x[:5])
-    w = np.asarray(obj.w)
-    h = (sign * np.asarray(PaperModel.from_array(jnp.asarray(p * np.array([sign, 1, 1, 1, 1]))).frequency_response(w))
-         * _mode_np(w, *np.exp(x[8:])) * _mode_np(w, *pair))  # fmt: skip
-    e_db = 20 * np.log10(np.abs(h)) - np.asarray(obj.magnitude_db)
-    e_ph = (np.rad2deg(np.angle(h)) - np.asarray(obj.phase_deg) + 180.0) % 360.0 - 180.0
-    ref = 20.0 / float(obj.n) * np.sum(np.asarray(obj.weight) * (e_db**2 + float(obj.phase_weight) * e_ph**2))
+    ref = _plain_j(obj, x[:5], [np.exp(x[8:]), pair])
     assert ref > 1.0 and got == pytest.approx(ref, rel=1e-9)
     key = jax.random.key(3)
     (beside,) = fit_linear_candidates(held, x_nom, [("structural_mode",)], key, wolves=10, iterations=25)
@@ -694,22 +721,13 @@ def test_the_pair_is_refitted_beside_the_resonance():
     ``fit_resonance_beside_pair``, which refits the pair beside it and the resonance again,
     recovers both (2 % on the resonance, 5 % on the pair with this small pack) at a
     fraction of the held pair's ``J``."""
-    from jaxgwo._cost import CiferObjective
     from jaxgwo._diagnose import _Z_HI_SECOND_PAIR, fit_resonance_beside_pair
-    from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO_STRUCTURE, fit_linear_candidates, with_fixed_modes
-    from jaxgwo._models import ParameterMap
+    from jaxgwo._diagnose_which import fit_linear_candidates, with_fixed_modes
 
     pair, res = (1.7, 0.2, 0.7), (6.0, 0.04, 0.12)
-    sign = float(np.sign(float(MODEL.K)))
-    resp = _response(lambda w: sign * MODEL.frequency_response(w) * _mode_np(np.asarray(w), *pair)
-                     * _mode_np(np.asarray(w), *res))  # fmt: skip
-    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
-    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
     kw = dict(wolves=10, iterations=25)
-    (st,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], jax.random.key(3), z_hi=_Z_HI_STRUCTURE,
-                                  z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
+    obj, st, bent = _pair_and_resonance_structure(pair, res, **kw)
     keys = ("freq_hz", "zeta_p", "zeta_z")
-    bent = tuple(st.params["structural_mode"][k] for k in keys)
     assert abs(bent[0] / pair[0] - 1.0) > 0.1  # the one slot took some of the resonance
 
     def errors(fitted, truth):
@@ -736,31 +754,15 @@ def test_the_pair_is_refitted_with_the_resonance(monkeypatch):
     in pole damping, at a tenth of the alternation's ``J``; the scan's own ``J`` is a plain
     NumPy ``J`` of its model against the measured response."""
     import jaxgwo._diagnose as D
-    from jaxgwo._cost import CiferObjective
-    from jaxgwo._diagnose_which import _Z_HI_STRUCTURE, _Z_LO_STRUCTURE, fit_linear_candidates, joint_pair_resonance_scan
-    from jaxgwo._models import ParameterMap
+    from jaxgwo._diagnose_which import joint_pair_resonance_scan
 
     pair, res = (2.5, 0.5, 1.0), (8.5, 0.04, 0.2)
-    sign = float(np.sign(float(MODEL.K)))
-    resp = _response(lambda w: sign * MODEL.frequency_response(w) * _mode_np(np.asarray(w), *pair)
-                     * _mode_np(np.asarray(w), *res))  # fmt: skip
-    obj = CiferObjective.from_response(resp, ParameterMap.for_model(MODEL))
-    x_nom = np.log(np.abs(np.asarray(MODEL.to_array(), float)))
     kw = dict(wolves=10, iterations=25)
-    (st,) = fit_linear_candidates(obj, x_nom, [("structural_mode",)], jax.random.key(3), z_hi=_Z_HI_STRUCTURE,
-                                  z_lo=_Z_LO_STRUCTURE, **kw)  # fmt: skip
+    obj, st, bent = _pair_and_resonance_structure(pair, res, **kw)
     keys = ("freq_hz", "zeta_p", "zeta_z")
-    bent = tuple(st.params["structural_mode"][k] for k in keys)
     assert abs(bent[0] / res[0] - 1.0) < 0.1  # the one slot took the resonance
     j_scan, x_scan = joint_pair_resonance_scan(obj, st.x[:5], bent, D._Z_HI_SECOND_PAIR[3:6])
-    p = np.exp(x_scan[:5])
-    w = np.asarray(obj.w)
-    h = (sign * np.asarray(PaperModel.from_array(jnp.asarray(p * np.array([sign, 1, 1, 1, 1]))).frequency_response(w))
-         * _mode_np(w, *np.exp(x_scan[5:8])) * _mode_np(w, *np.exp(x_scan[8:11])))  # fmt: skip
-    e_db = 20 * np.log10(np.abs(h)) - np.asarray(obj.magnitude_db)
-    e_ph = (np.rad2deg(np.angle(h)) - np.asarray(obj.phase_deg) + 180.0) % 360.0 - 180.0
-    ref = 20.0 / float(obj.n) * np.sum(np.asarray(obj.weight) * (e_db**2 + float(obj.phase_weight) * e_ph**2))
-    assert j_scan == pytest.approx(ref, rel=1e-9)
+    assert j_scan == pytest.approx(_plain_j(obj, x_scan[:5], [np.exp(x_scan[5:8]), np.exp(x_scan[8:11])]), rel=1e-9)
     f, _pair = D.fit_resonance_beside_pair(obj, st.x[:5], bent, st.x[5:], jax.random.key(4), **kw)
     monkeypatch.setattr(D, "joint_pair_resonance_scan", lambda *a, **k: (math.inf, None))
     alone, _ = D.fit_resonance_beside_pair(obj, st.x[:5], bent, st.x[5:], jax.random.key(4), **kw)
