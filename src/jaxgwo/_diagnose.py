@@ -66,6 +66,7 @@ from ._diagnose_which import (
     airframe_lag_refit,
     bracketed_lag,
     delay_aware_start,
+    effect_params_from_z,
     f_test_p,
     fit_cross_coupling,
     fit_linear_candidates,
@@ -1192,11 +1193,6 @@ def _on_box_edge(mode: Mapping[str, float], hi: np.ndarray = _Z_HI_SECOND_PAIR[3
     return bool(np.any(z <= _Z_LO[3:6] + 1e-3) or np.any(z >= hi - 1e-3))
 
 
-def _mode_dict(mode: Sequence[float]) -> dict[str, float]:
-    """A ``structural_mode``'s parameters from its ``(freq_hz, zeta_p, zeta_z)``."""
-    return dict(zip(("freq_hz", "zeta_p", "zeta_z"), map(float, mode)))
-
-
 def _mode_tuple(mode: Mapping[str, float]) -> tuple[float, float, float]:
     """A ``structural_mode``'s ``(freq_hz, zeta_p, zeta_z)``, as :attr:`ModelSpec.fixed_modes` holds it."""
     return (mode["freq_hz"], mode["zeta_p"], mode["zeta_z"])
@@ -1246,11 +1242,11 @@ def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float,
     # _on_box_edge) it is fitted again as above, beside its pair held, for the resonance's
     # bounds and J
     j_joint, x_joint = joint_pair_resonance_scan(objective, x_paper, pair, _Z_HI_SECOND_PAIR[3:6])
-    if j_joint < best[0].cost_J and not _on_box_edge(_mode_dict(np.exp(x_joint[8:11]))):
+    z_joint = None if not j_joint < best[0].cost_J else np.r_[_Z_NEUTRAL[:3], x_joint[8:11]]  # the resonance
+    if z_joint is not None and not _on_box_edge(effect_params_from_z("structural_mode", z_joint)):
         joint = (tuple(float(v) for v in np.exp(x_joint[5:8])),)
         (k,) = fit_linear_candidates(with_fixed_modes(objective, joint), x_joint[:5], own, jax.random.fold_in(key, 3),
-                                     effect_seed=np.r_[_Z_NEUTRAL[:3], x_joint[8:11]], z_hi=_Z_HI_SECOND_PAIR,
-                                     **kw)  # fmt: skip
+                                     effect_seed=z_joint, z_hi=_Z_HI_SECOND_PAIR, **kw)  # fmt: skip
         if k.cost_J < best[0].cost_J and not _on_box_edge(k.params["structural_mode"]):
             best = (k, joint)
     return best

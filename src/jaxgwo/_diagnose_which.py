@@ -149,6 +149,12 @@ def _effect_params_and_sigma(names: Sequence[str], z, z_sigma) -> tuple[dict, di
     return params, sigma
 
 
+def _finite_cost(r: Float[Array, " 2freq"]) -> Float[Array, ""]:
+    """``J = |r|^2`` of the residuals ``r``, +inf where it is not finite."""
+    j = jnp.sum(r * r)
+    return jnp.where(jnp.isfinite(j), j, jnp.inf)
+
+
 class AugmentedCifer(eqx.Module):
     r"""CIFER cost ``J`` (as :class:`jaxgwo._cost.CiferObjective`) of the paper model with the
     linear effects selected by ``active``.
@@ -180,9 +186,7 @@ class AugmentedCifer(eqx.Module):
         return self.cifer.residuals_from_response(self.response(x))
 
     def __call__(self, x: Float[Array, " 11"]) -> Float[Array, ""]:
-        r = self.residuals(x)
-        j = jnp.sum(r * r)
-        return jnp.where(jnp.isfinite(j), j, jnp.inf)
+        return _finite_cost(self.residuals(x))
 
 
 
@@ -544,9 +548,7 @@ class PairAndResonance(eqx.Module):
         return self.cifer.residuals_from_response(h * structural_mode_response(w, e[8], e[9], e[10]))
 
     def __call__(self, x: Float[Array, " 11"]) -> Float[Array, ""]:
-        r = self.residuals(x)
-        j = jnp.sum(r * r)
-        return jnp.where(jnp.isfinite(j), j, jnp.inf)
+        return _finite_cost(self.residuals(x))
 
 
 _JOINT_SCAN_DAMPING = ((0.03, 0.2), (0.06, 0.2), (0.03, 0.4))
