@@ -554,6 +554,12 @@ class PairAndResonance(eqx.Module):
 _JOINT_SCAN_DAMPING = ((0.03, 0.2), (0.06, 0.2), (0.03, 0.4))
 """The resonance's ``(zeta_p, zeta_z)`` starts of :func:`joint_pair_resonance_scan`."""
 
+_JOINT_SCAN_PAIR_STARTS = ((1.5, 0.3, 1.0), (3.0, 0.3, 1.0), (6.0, 0.3, 1.0))
+"""The airframe pair's ``(freq_hz, zeta_p, zeta_z)`` starts of
+:func:`joint_pair_resonance_scan` beside the one it is given: broad pairs an octave apart
+over the low end of the structure step's box, where an airframe's pair lies, for where the
+structure step bent its pair onto the resonance."""
+
 
 def joint_pair_resonance_scan(objective: CiferObjective, x_paper: np.ndarray, pair: Sequence[float],
                               z_hi_resonance: np.ndarray, n_freq: int = 48,
@@ -561,9 +567,11 @@ def joint_pair_resonance_scan(objective: CiferObjective, x_paper: np.ndarray, pa
     """A resonance beside an airframe pole pair ``pair`` (``freq_hz, zeta_p, zeta_z``) with
     the pair refitted *with* it: a profile of ``J`` (:class:`PairAndResonance`) over the
     resonance's frequency (``n_freq`` points over the vocabulary's box, three damping
-    starts, :data:`_JOINT_SCAN_DAMPING`), every point's paper parameters, pair and
+    starts, :data:`_JOINT_SCAN_DAMPING`; the pair from ``pair`` and from each of
+    :data:`_JOINT_SCAN_PAIR_STARTS`), every point's paper parameters, pair and
     resonance damping refined by one batched Levenberg-Marquardt (:func:`_profile_lm`), then
-    the ``keep`` best distinct frequencies polished with everything free.  The resonance's
+    the ``keep`` best distinct points (resonance or pair frequency apart) polished with
+    everything free.  The resonance's
     box is :data:`_Z_LO`'s and ``z_hi_resonance`` (log frequency, pole and zero damping), the
     pair's the structure step's; the paper parameters start at ``x_paper`` and may move a
     factor 2 (and the polish's factor 4 beyond, :func:`_polish_box`).  Returns the best
@@ -574,7 +582,10 @@ def joint_pair_resonance_scan(objective: CiferObjective, x_paper: np.ndarray, pa
     seed 651's R-50 case_000 (a 9.67 Hz mode, pole damping 0.025) at 8.77 Hz on the pole
     damping's cap 0.2, ``J`` 6.85, where the pair refitted with the resonance fits ``J``
     5.63 at 9.68 Hz, 0.036; 649/032 (11.57 Hz, 0.072): 9.70 Hz on the cap, ``J`` 9.09,
-    against 8.78 at 11.56 Hz, 0.072."""
+    against 8.78 at 11.56 Hz, 0.072.  Where the structure step bent ``pair`` onto the
+    resonance (noise-free, a 1.7 Hz pair and a 9.7 Hz resonance: the pair at 10.5 Hz), the
+    scan from that pair alone found neither (``J`` 11.2); from the broad starts as well it
+    finds both."""
     obj = PairAndResonance(objective)
     half = math.log(2.0)
     xp = np.asarray(x_paper, float)[:5]
@@ -582,7 +593,9 @@ def joint_pair_resonance_scan(objective: CiferObjective, x_paper: np.ndarray, pa
     hi = np.r_[xp + half, _Z_HI_STRUCTURE[3:6], np.asarray(z_hi_resonance, float)]
     f = np.linspace(_Z_LO[3], z_hi_resonance[0], n_freq)
     z_pair = np.log(np.asarray(pair, float))
-    rows = [np.r_[xp, z_pair, g, math.log(zp), math.log(zz)] for zp, zz in _JOINT_SCAN_DAMPING for g in f]
+    rows = [np.r_[xp, zq, g, math.log(zp), math.log(zz)]
+            for zq in (z_pair, *np.log(np.asarray(_JOINT_SCAN_PAIR_STARTS, float)))
+            for zp, zz in _JOINT_SCAN_DAMPING for g in f]  # fmt: skip
     plo, phi = _polish_box(lo, hi)
     xs = np.clip(np.asarray(rows), lo, hi)
     free = np.ones(11, bool)
@@ -592,7 +605,7 @@ def joint_pair_resonance_scan(objective: CiferObjective, x_paper: np.ndarray, pa
     j = np.where(np.isfinite(j), j, np.inf)
     picked: list[int] = []
     for i in np.argsort(j):
-        if np.isfinite(j[i]) and all(abs(xs[i, 8] - xs[k, 8]) > 0.1 for k in picked):
+        if np.isfinite(j[i]) and all(np.max(np.abs(xs[i, [5, 8]] - xs[k, [5, 8]])) > 0.1 for k in picked):
             picked.append(int(i))
         if len(picked) == keep:
             break
