@@ -800,6 +800,19 @@ def test_the_joint_scan_finds_the_pair_the_structure_step_bent(monkeypatch):
     assert f.cost_J == pytest.approx(_plain_j(obj, f.x[:5], [got_pair, got]), rel=1e-6, abs=1e-12)
 
 
+def test_a_joint_fit_that_moved_the_pair_into_the_resonance_slot_is_told():
+    """The joint scan may hand back the structure pair as its resonance (real zeros, at the
+    pair's frequency) beside another pair; a resonance beside the pair is neither one with
+    a resonance's zeros nor one away from the pair's half-power half-width."""
+    from jaxgwo._diagnose import _pair_in_resonance_slot
+
+    pair = (9.05, 0.159, 1.45)
+    assert _pair_in_resonance_slot(np.array([9.15, 0.151, 1.23]), pair, 1.0)
+    assert not _pair_in_resonance_slot(np.array([9.15, 0.151, 0.23]), pair, 1.0)  # a resonance's zeros
+    assert not _pair_in_resonance_slot(np.array([11.8, 0.094, 1.26]), pair, 1.0)  # 2.75 Hz away, width 1.44
+    assert not _pair_in_resonance_slot(np.array([9.15, 0.151, 1.23]), pair, math.inf)  # the structure test off
+
+
 def test_a_resonance_beside_a_held_pair_counts_only_inside_its_box():
     """The fits the R-50 blind cases gave beside a held pair: on the 3 Hz floor at the
     0.2 pole-damping cap (a flapping lag's), at the zero-damping cap (a long delay's) or

@@ -1198,8 +1198,21 @@ def _mode_tuple(mode: Mapping[str, float]) -> tuple[float, float, float]:
     return (mode["freq_hz"], mode["zeta_p"], mode["zeta_z"])
 
 
+def _pair_in_resonance_slot(resonance: np.ndarray, pair: Sequence[float], structure_zeta_z: float) -> bool:
+    """Whether a joint fit's resonance ``(freq_hz, zeta_p, zeta_z)`` is the structure
+    finding's pole ``pair`` moved into the resonance's slot: real zeros, as the structure
+    step names a pair (zero damping above ``structure_zeta_z``), at a frequency within the
+    pair's half-power half-width (its pole damping times its frequency).  The other slot
+    then holds another pair, not the resonance the candidate names (session 88: a 9 Hz
+    structure pair at pole damping 0.15, zeros 1.5, came back as the resonance, 9.15 Hz,
+    zeros 1.23, beside a 1.44 Hz pair that fitted the noise, ``J`` 2.28 against 2.73)."""
+    f, _zp, zz = (float(v) for v in resonance)
+    return zz > structure_zeta_z and abs(f - pair[0]) <= pair[1] * pair[0]
+
+
 def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float, float, float], z_pair: np.ndarray,
-                              key, **kw) -> tuple[LinearFit, tuple[tuple[float, float, float]]]:
+                              key, structure_zeta_z: float = 1.0,
+                              **kw) -> tuple[LinearFit, tuple[tuple[float, float, float]]]:
     """A resonance fitted on ``J`` beside an airframe pole pair ``pair`` (``freq_hz,
     zeta_p, zeta_z``; ``z_pair`` its effect coordinates), in the box of
     :data:`_Z_HI_SECOND_PAIR`, with the paper parameters (start ``x_paper``).  Returns the
@@ -1225,6 +1238,9 @@ def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float,
     Seed-137 case_003 (R-50, 8.31 Hz): ``J`` 6.42 -> 5.89, and the held-out R^2 against
     the pair alone 0.9868 -> 0.9851 (z -2.2, refused) before, 0.9870 (z 1.4) after; the
     resonance 8.31 Hz, pole damping 0.041, zeros 0.080 for the true 0.046 and 0.110.
+    Nor is a joint fit taken whose resonance is ``pair`` itself moved into the resonance's
+    slot (:func:`_pair_in_resonance_slot`, real zeros above ``structure_zeta_z``,
+    :class:`DiagnoseSettings`').
     ``kw``: :func:`fit_linear_candidates`'s ``wolves``, ``iterations``, ``dependence_factor``."""
     own = [("structural_mode",)]
     fixed = (tuple(pair),)
@@ -1243,11 +1259,15 @@ def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float,
     # bounds and J
     j_joint, x_joint = joint_pair_resonance_scan(objective, x_paper, pair, _Z_HI_SECOND_PAIR[3:6])
     z_joint = None if not j_joint < best[0].cost_J else np.r_[_Z_NEUTRAL[:3], x_joint[8:11]]  # the resonance
+    if z_joint is not None and _pair_in_resonance_slot(np.exp(x_joint[8:11]), pair, structure_zeta_z):
+        z_joint = None
     if z_joint is not None and not _on_box_edge(effect_params_from_z("structural_mode", z_joint)):
         joint = (tuple(float(v) for v in np.exp(x_joint[5:8])),)
         (k,) = fit_linear_candidates(with_fixed_modes(objective, joint), x_joint[:5], own, jax.random.fold_in(key, 3),
                                      effect_seed=z_joint, z_hi=_Z_HI_SECOND_PAIR, **kw)  # fmt: skip
-        if k.cost_J < best[0].cost_J and not _on_box_edge(k.params["structural_mode"]):
+        mode = k.params["structural_mode"]
+        if (k.cost_J < best[0].cost_J and not _on_box_edge(mode)
+                and not _pair_in_resonance_slot(_mode_tuple(mode), pair, structure_zeta_z)):
             best = (k, joint)
     return best
 
@@ -2788,8 +2808,9 @@ def diagnose(
             obj, x0, z_pair, sv = base.start
             pair = _mode_tuple(base.spec.effects["structural_mode"])
             own = ("structural_mode",)
-            f, fixed = fit_resonance_beside_pair(obj, x0, pair, z_pair, k_pair, wolves=settings.wolves,
-                                                 iterations=settings.iterations, dependence_factor=dep)  # fmt: skip
+            f, fixed = fit_resonance_beside_pair(obj, x0, pair, z_pair, k_pair, settings.structure_zeta_z,
+                                                 wolves=settings.wolves, iterations=settings.iterations,
+                                                 dependence_factor=dep)  # fmt: skip
             spec = ModelSpec(np.exp(f.x[:5]) * sv, f.params, fixed_modes=fixed)
             specs[own] = spec
             edge = _on_box_edge(f.params["structural_mode"])
