@@ -807,10 +807,11 @@ def test_a_joint_fit_that_moved_the_pair_into_the_resonance_slot_is_told():
     from jaxgwo._diagnose import _pair_in_resonance_slot
 
     pair = (9.05, 0.159, 1.45)
-    assert _pair_in_resonance_slot(np.array([9.15, 0.151, 1.23]), pair, 1.0)
-    assert not _pair_in_resonance_slot(np.array([9.15, 0.151, 0.23]), pair, 1.0)  # a resonance's zeros
-    assert not _pair_in_resonance_slot(np.array([11.8, 0.094, 1.26]), pair, 1.0)  # 2.75 Hz away, width 1.44
-    assert not _pair_in_resonance_slot(np.array([9.15, 0.151, 1.23]), pair, math.inf)  # the structure test off
+    mode = lambda f, zp, zz: {"freq_hz": f, "zeta_p": zp, "zeta_z": zz}  # noqa: E731
+    assert _pair_in_resonance_slot(mode(9.15, 0.151, 1.23), pair, 1.0)
+    assert not _pair_in_resonance_slot(mode(9.15, 0.151, 0.23), pair, 1.0)  # a resonance's zeros
+    assert not _pair_in_resonance_slot(mode(11.8, 0.094, 1.26), pair, 1.0)  # 2.75 Hz away, width 1.44
+    assert not _pair_in_resonance_slot(mode(9.15, 0.151, 1.23), pair, math.inf)  # the structure test off
 
 
 def test_a_resonance_beside_a_held_pair_counts_only_inside_its_box():

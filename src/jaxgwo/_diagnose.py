@@ -1198,20 +1198,19 @@ def _mode_tuple(mode: Mapping[str, float]) -> tuple[float, float, float]:
     return (mode["freq_hz"], mode["zeta_p"], mode["zeta_z"])
 
 
-def _pair_in_resonance_slot(resonance: np.ndarray, pair: Sequence[float], structure_zeta_z: float) -> bool:
-    """Whether a joint fit's resonance ``(freq_hz, zeta_p, zeta_z)`` is the structure
+def _pair_in_resonance_slot(mode: Mapping[str, float], pair: Sequence[float], structure_zeta_z: float) -> bool:
+    """Whether a joint fit's resonance (its ``params``, as :func:`_on_box_edge`) is the structure
     finding's pole ``pair`` moved into the resonance's slot: real zeros, as the structure
     step names a pair (zero damping above ``structure_zeta_z``), at a frequency within the
     pair's half-power half-width (its pole damping times its frequency).  The other slot
     then holds another pair, not the resonance the candidate names (session 88: a 9 Hz
     structure pair at pole damping 0.15, zeros 1.5, came back as the resonance, 9.15 Hz,
     zeros 1.23, beside a 1.44 Hz pair that fitted the noise, ``J`` 2.28 against 2.73)."""
-    f, _zp, zz = (float(v) for v in resonance)
-    return zz > structure_zeta_z and abs(f - pair[0]) <= pair[1] * pair[0]
+    return mode["zeta_z"] > structure_zeta_z and abs(mode["freq_hz"] - pair[0]) <= pair[1] * pair[0]
 
 
 def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float, float, float], z_pair: np.ndarray,
-                              key, structure_zeta_z: float = 1.0,
+                              key, structure_zeta_z: float = DiagnoseSettings.structure_zeta_z,
                               **kw) -> tuple[LinearFit, tuple[tuple[float, float, float]]]:
     """A resonance fitted on ``J`` beside an airframe pole pair ``pair`` (``freq_hz,
     zeta_p, zeta_z``; ``z_pair`` its effect coordinates), in the box of
@@ -1258,16 +1257,16 @@ def fit_resonance_beside_pair(objective, x_paper: np.ndarray, pair: tuple[float,
     # _on_box_edge) it is fitted again as above, beside its pair held, for the resonance's
     # bounds and J
     j_joint, x_joint = joint_pair_resonance_scan(objective, x_paper, pair, _Z_HI_SECOND_PAIR[3:6])
+
+    def taken(mode: Mapping[str, float]) -> bool:  # a resonance inside the box, not the pair moved into its slot
+        return not _on_box_edge(mode) and not _pair_in_resonance_slot(mode, pair, structure_zeta_z)
+
     z_joint = None if not j_joint < best[0].cost_J else np.r_[_Z_NEUTRAL[:3], x_joint[8:11]]  # the resonance
-    if z_joint is not None and _pair_in_resonance_slot(np.exp(x_joint[8:11]), pair, structure_zeta_z):
-        z_joint = None
-    if z_joint is not None and not _on_box_edge(effect_params_from_z("structural_mode", z_joint)):
+    if z_joint is not None and taken(effect_params_from_z("structural_mode", z_joint)):
         joint = (tuple(float(v) for v in np.exp(x_joint[5:8])),)
         (k,) = fit_linear_candidates(with_fixed_modes(objective, joint), x_joint[:5], own, jax.random.fold_in(key, 3),
                                      effect_seed=z_joint, z_hi=_Z_HI_SECOND_PAIR, **kw)  # fmt: skip
-        mode = k.params["structural_mode"]
-        if (k.cost_J < best[0].cost_J and not _on_box_edge(mode)
-                and not _pair_in_resonance_slot(_mode_tuple(mode), pair, structure_zeta_z)):
+        if k.cost_J < best[0].cost_J and taken(k.params["structural_mode"]):
             best = (k, joint)
     return best
 
